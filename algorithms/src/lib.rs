@@ -1,0 +1,10 @@
+//! tetbench algorithms: the mesh model and its loaders, the camera, transfer functions and optics,
+//! visibility sorts and the renderers, shared by the `tetbench` harness and `datasets-gen`.
+
+pub mod error;
+pub mod mesh;
+pub mod tf;
+
+pub use error::{Error, Result};
+pub use mesh::Mesh;
+pub use tf::TransferFunction;

@@ -1,0 +1,278 @@
+//! Transfer functions (CONVENTIONS §3): colour (linear RGB) and extinction `tau` piecewise linear
+//! in the normalised scalar `s`, constant beyond the end points.
+
+use std::path::Path;
+
+use serde::Deserialize;
+
+use crate::error::{Error, Result};
+
+/// One control point.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TfPoint {
+    pub s: f64,
+    pub rgb: [f64; 3],
+    pub tau: f64,
+}
+
+/// A validated transfer function.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TransferFunction {
+    pub name: String,
+    /// Scalar range mapped to s ∈ [0, 1]; `None` means the mesh's own range.
+    pub range: Option<[f64; 2]>,
+    pub points: Vec<TfPoint>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TfFile {
+    #[serde(default)]
+    name: Option<String>,
+    #[serde(default)]
+    range: Option<[f64; 2]>,
+    points: Vec<TfPoint>,
+}
+
+/// Maps a raw scalar value to the transfer function's `s`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScalarMap {
+    pub min: f64,
+    /// 1 / (max − min), or 0 for a constant field (every scalar maps to s = 0).
+    pub inv_span: f64,
+}
+
+impl ScalarMap {
+    #[inline]
+    pub fn s(&self, v: f64) -> f64 {
+        (v - self.min) * self.inv_span
+    }
+}
+
+/// Names of the built-in presets (documented in `docs/transfer-functions.md`).
+pub const PRESETS: [&str; 3] = ["default", "cool-warm", "xray"];
+
+impl TransferFunction {
+    /// Parses the JSON of §3; `source` names the file in messages.
+    pub fn from_json(text: &str, source: &str) -> Result<TransferFunction> {
+        let f: TfFile = serde_json::from_str(text)
+            .map_err(|e| Error::input(source, format!("not a transfer function: {e}")))?;
+        let tf = TransferFunction {
+            name: f.name.unwrap_or_else(|| source.to_string()),
+            range: f.range,
+            points: f.points,
+        };
+        tf.validate(source)?;
+        Ok(tf)
+    }
+
+    /// Loads a preset by name, or else a JSON file by path.
+    pub fn load(name_or_path: &str) -> Result<TransferFunction> {
+        if let Some(tf) = Self::preset(name_or_path) {
+            return Ok(tf);
+        }
+        let path = Path::new(name_or_path);
+        if !path.exists() {
+            return Err(Error::Input(format!(
+                "{name_or_path}: no such transfer-function file or preset (presets: {})",
+                PRESETS.join(", ")
+            )));
+        }
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        Self::from_json(&text, name_or_path)
+    }
+
+    pub fn validate(&self, source: &str) -> Result<()> {
+        if self.points.is_empty() {
+            return Err(Error::input(source, "\"points\" is empty"));
+        }
+        for (i, p) in self.points.iter().enumerate() {
+            if !p.s.is_finite() {
+                return Err(Error::input(source, format!("points[{i}].s is not finite")));
+            }
+            if !(p.tau.is_finite() && p.tau >= 0.0) {
+                return Err(Error::input(
+                    source,
+                    format!("points[{i}].tau = {} must be finite and >= 0", p.tau),
+                ));
+            }
+            if p.rgb.iter().any(|c| !c.is_finite() || *c < 0.0) {
+                return Err(Error::input(
+                    source,
+                    format!("points[{i}].rgb = {:?} must be finite and >= 0", p.rgb),
+                ));
+            }
+            if i > 0 && p.s <= self.points[i - 1].s {
+                return Err(Error::input(
+                    source,
+                    format!(
+                        "points[{i}].s = {} is not greater than points[{}].s = {} (points must be sorted, no duplicates)",
+                        p.s,
+                        i - 1,
+                        self.points[i - 1].s
+                    ),
+                ));
+            }
+        }
+        if let Some([a, b]) = self.range {
+            if !(a.is_finite() && b.is_finite()) || b < a {
+                return Err(Error::input(
+                    source,
+                    format!("range [{a}, {b}] must be finite with min <= max"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The scalar map for a mesh whose active field spans `mesh_range`.
+    pub fn scalar_map(&self, mesh_range: (f64, f64)) -> ScalarMap {
+        let (min, max) = match self.range {
+            Some([a, b]) => (a, b),
+            None => mesh_range,
+        };
+        let span = max - min;
+        let inv_span = if span > 0.0 && (1.0 / span).is_finite() {
+            1.0 / span
+        } else {
+            0.0
+        };
+        ScalarMap { min, inv_span }
+    }
+
+    /// Colour and extinction at `s`: linear between points, constant beyond the ends.
+    pub fn eval(&self, s: f64) -> ([f64; 3], f64) {
+        let p = &self.points;
+        if s <= p[0].s || p.len() == 1 {
+            return (p[0].rgb, p[0].tau);
+        }
+        let last = p[p.len() - 1];
+        if s >= last.s {
+            return (last.rgb, last.tau);
+        }
+        // First point with s_k > s; k ≥ 1 here.
+        let k = p.partition_point(|q| q.s <= s);
+        let (a, b) = (p[k - 1], p[k]);
+        let w = (s - a.s) / (b.s - a.s);
+        let lerp = |x: f64, y: f64| x + (y - x) * w;
+        (
+            [
+                lerp(a.rgb[0], b.rgb[0]),
+                lerp(a.rgb[1], b.rgb[1]),
+                lerp(a.rgb[2], b.rgb[2]),
+            ],
+            lerp(a.tau, b.tau),
+        )
+    }
+
+    /// The control-point positions strictly between `s0` and `s1` (either order), in the order
+    /// met when walking from `s0` to `s1`. The `exact` integrator splits segments there.
+    pub fn breakpoints_between(&self, s0: f64, s1: f64) -> impl Iterator<Item = f64> + '_ {
+        let (lo, hi) = if s0 <= s1 { (s0, s1) } else { (s1, s0) };
+        let inner = self.points.iter().map(|p| p.s).filter(move |&s| s > lo && s < hi);
+        let v: Vec<f64> = if s0 <= s1 {
+            inner.collect()
+        } else {
+            let mut v: Vec<f64> = inner.collect();
+            v.reverse();
+            v
+        };
+        v.into_iter()
+    }
+
+    /// Largest extinction of any point.
+    pub fn max_tau(&self) -> f64 {
+        self.points.iter().map(|p| p.tau).fold(0.0, f64::max)
+    }
+
+    /// A built-in preset by name.
+    pub fn preset(name: &str) -> Option<TransferFunction> {
+        let pt = |s: f64, rgb: [f64; 3], tau: f64| TfPoint { s, rgb, tau };
+        let points = match name {
+            // A warm ramp that makes both thin and thick regions visible.
+            "default" => vec![
+                pt(0.0, [0.0, 0.0, 0.0], 0.0),
+                pt(0.25, [0.1, 0.3, 0.9], 2.0),
+                pt(0.5, [0.2, 0.9, 0.4], 6.0),
+                pt(0.75, [1.0, 0.7, 0.1], 12.0),
+                pt(1.0, [1.0, 1.0, 1.0], 20.0),
+            ],
+            // Diverging blue–white–red, opacity rising towards both ends.
+            "cool-warm" => vec![
+                pt(0.0, [0.23, 0.30, 0.75], 10.0),
+                pt(0.5, [0.87, 0.87, 0.87], 1.0),
+                pt(1.0, [0.71, 0.02, 0.15], 10.0),
+            ],
+            // Grey emission proportional to density, like an X-ray.
+            "xray" => vec![pt(0.0, [1.0, 1.0, 1.0], 0.0), pt(1.0, [1.0, 1.0, 1.0], 5.0)],
+            _ => return None,
+        };
+        Some(TransferFunction {
+            name: name.to_string(),
+            range: None,
+            points,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const EXAMPLE: &str = r#"{ "name": "example", "range": [0.0, 1.0],
+      "points": [ {"s": 0.0, "rgb": [0.0, 0.0, 0.0], "tau": 0.0},
+                  {"s": 0.5, "rgb": [1.0, 0.5, 0.0], "tau": 8.0},
+                  {"s": 1.0, "rgb": [1.0, 1.0, 1.0], "tau": 20.0} ] }"#;
+
+    #[test]
+    fn evaluates_piecewise_linear_and_clamps() {
+        let tf = TransferFunction::from_json(EXAMPLE, "ex.json").unwrap();
+        assert_eq!(tf.eval(-1.0), ([0.0; 3], 0.0));
+        assert_eq!(tf.eval(0.25), ([0.5, 0.25, 0.0], 4.0));
+        assert_eq!(tf.eval(0.5), ([1.0, 0.5, 0.0], 8.0));
+        assert_eq!(tf.eval(0.75), ([1.0, 0.75, 0.5], 14.0));
+        assert_eq!(tf.eval(2.0), ([1.0; 3], 20.0));
+        let b: Vec<f64> = tf.breakpoints_between(0.9, 0.1).collect();
+        assert_eq!(b, vec![0.5]);
+        assert_eq!(tf.breakpoints_between(0.5, 1.0).count(), 0);
+    }
+
+    #[test]
+    fn scalar_map() {
+        let mut tf = TransferFunction::from_json(EXAMPLE, "ex.json").unwrap();
+        tf.range = None;
+        let m = tf.scalar_map((2.0, 6.0));
+        assert_eq!(m.s(4.0), 0.5);
+        let c = tf.scalar_map((3.0, 3.0));
+        assert_eq!(c.s(3.0), 0.0);
+    }
+
+    #[test]
+    fn refuses_malformed_files() {
+        for (bad, what) in [
+            ("not json", "not a transfer function"),
+            (r#"{"points": []}"#, "empty"),
+            (r#"{"points": [{"s":0.5,"rgb":[0,0,0],"tau":1},{"s":0.5,"rgb":[0,0,0],"tau":1}]}"#, "not greater"),
+            (r#"{"points": [{"s":0.6,"rgb":[0,0,0],"tau":1},{"s":0.5,"rgb":[0,0,0],"tau":1}]}"#, "sorted"),
+            (r#"{"points": [{"s":0.0,"rgb":[0,0,0],"tau":-1}]}"#, "tau"),
+            (r#"{"points": [{"s":0.0,"rgb":[0,0],"tau":1}]}"#, "not a transfer"),
+            (r#"{"range": [1, 0], "points": [{"s":0.0,"rgb":[0,0,0],"tau":1}]}"#, "range"),
+        ] {
+            let e = TransferFunction::from_json(bad, "bad.json").unwrap_err();
+            let msg = e.to_string();
+            assert!(msg.starts_with("bad.json: ") && msg.contains(what), "{msg}");
+            assert!(!msg.contains('\n'), "{msg}");
+        }
+    }
+
+    #[test]
+    fn presets_are_valid() {
+        for p in PRESETS {
+            let tf = TransferFunction::preset(p).unwrap();
+            tf.validate(p).unwrap();
+            assert_eq!(TransferFunction::load(p).unwrap(), tf);
+        }
+        assert!(TransferFunction::load("no-such-preset").is_err());
+    }
+}

@@ -2,6 +2,7 @@
 //! visibility sorts and the renderers, shared by the `tetbench` harness and `datasets-gen`.
 
 pub mod error;
+pub mod io;
 pub mod mesh;
 pub mod tf;
 

@@ -129,7 +129,10 @@ impl Mesh {
         }
         for f in &fields {
             if f.steps.is_empty() {
-                return Err(Error::input(source, format!("field '{}' has no values", f.name)));
+                return Err(Error::input(
+                    source,
+                    format!("field '{}' has no values", f.name),
+                ));
             }
             for (k, s) in f.steps.iter().enumerate() {
                 if s.len() != positions.len() {
@@ -228,9 +231,7 @@ impl Mesh {
 
     /// Adds a field (or replaces one of the same name).
     pub fn add_field(&mut self, field: Field) -> Result<()> {
-        if field.steps.is_empty()
-            || field.steps.iter().any(|s| s.len() != self.positions.len())
-        {
+        if field.steps.is_empty() || field.steps.iter().any(|s| s.len() != self.positions.len()) {
             return Err(Error::Input(format!(
                 "field '{}' must have one value per vertex in every step",
                 field.name
@@ -332,7 +333,9 @@ impl Mesh {
     /// Face adjacency, built by sorting the sorted vertex triples of all faces (4·tets keys):
     /// equal neighbouring keys are the two sides of an interior face.
     pub fn adjacency(&self) -> &Adjacency {
-        self.cache.adjacency.get_or_init(|| build_adjacency(&self.tets))
+        self.cache
+            .adjacency
+            .get_or_init(|| build_adjacency(&self.tets))
     }
 
     /// Neighbour of tet `t` across face `f`, or [`BOUNDARY`].
@@ -458,8 +461,7 @@ fn boundary_is_convex(mesh: &Mesh) -> bool {
     }
     let mut i = 0;
     while i < edges.len() {
-        if i + 1 >= edges.len() || edges[i + 1].0 != edges[i].0 || edges[i + 1].1 != edges[i].1
-        {
+        if i + 1 >= edges.len() || edges[i + 1].0 != edges[i].0 || edges[i + 1].1 != edges[i].1 {
             return false; // open or non-manifold boundary
         }
         if i + 2 < edges.len() && edges[i + 2].0 == edges[i].0 && edges[i + 2].1 == edges[i].1 {
@@ -504,7 +506,13 @@ mod tests {
         let p: Vec<DVec3> = (0..8)
             .map(|i| DVec3::new((i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64))
             .collect();
-        let tets = vec![[0, 1, 2, 4], [1, 3, 2, 7], [1, 2, 4, 7], [1, 5, 7, 4], [2, 7, 6, 4]];
+        let tets = vec![
+            [0, 1, 2, 4],
+            [1, 3, 2, 7],
+            [1, 2, 4, 7],
+            [1, 5, 7, 4],
+            [2, 7, 6, 4],
+        ];
         let s = (0..8).map(|i| i as f64).collect();
         Mesh::with_scalars("cube5", p, tets, "s", s).unwrap()
     }
@@ -542,8 +550,14 @@ mod tests {
                 ));
             }
             // 6-tet Kuhn split along the 0-7 diagonal: conforming under translation.
-            for t in [[0, 1, 3, 7], [0, 3, 2, 7], [0, 2, 6, 7], [0, 6, 4, 7], [0, 4, 5, 7], [0, 5, 1, 7]]
-            {
+            for t in [
+                [0, 1, 3, 7],
+                [0, 3, 2, 7],
+                [0, 2, 6, 7],
+                [0, 6, 4, 7],
+                [0, 4, 5, 7],
+                [0, 5, 1, 7],
+            ] {
                 tets.push(t.map(|v: u32| base + v));
             }
         }
@@ -573,9 +587,7 @@ mod tests {
         let p = vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z];
         assert!(Mesh::with_scalars("m", p.clone(), vec![[0, 1, 2, 4]], "s", vec![0.0; 4]).is_err());
         assert!(Mesh::with_scalars("m", p.clone(), vec![], "s", vec![0.0; 4]).is_err());
-        assert!(
-            Mesh::with_scalars("m", p.clone(), vec![[0, 1, 2, 3]], "s", vec![0.0; 3]).is_err()
-        );
+        assert!(Mesh::with_scalars("m", p.clone(), vec![[0, 1, 2, 3]], "s", vec![0.0; 3]).is_err());
         let e = Mesh::with_scalars("m", p.clone(), vec![[0, 1, 2, 3]], "s", vec![f64::NAN; 4])
             .unwrap_err();
         assert!(e.to_string().starts_with("m: field 's' vertex 0"), "{e}");
@@ -586,7 +598,13 @@ mod tests {
 
     #[test]
     fn degenerate_and_negative_tets_are_counted() {
-        let p = vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z, DVec3::new(1.0, 1.0, 0.0)];
+        let p = vec![
+            DVec3::ZERO,
+            DVec3::X,
+            DVec3::Y,
+            DVec3::Z,
+            DVec3::new(1.0, 1.0, 0.0),
+        ];
         let m = Mesh::with_scalars(
             "m",
             p,

@@ -170,7 +170,11 @@ impl TransferFunction {
     /// met when walking from `s0` to `s1`. The `exact` integrator splits segments there.
     pub fn breakpoints_between(&self, s0: f64, s1: f64) -> impl Iterator<Item = f64> + '_ {
         let (lo, hi) = if s0 <= s1 { (s0, s1) } else { (s1, s0) };
-        let inner = self.points.iter().map(|p| p.s).filter(move |&s| s > lo && s < hi);
+        let inner = self
+            .points
+            .iter()
+            .map(|p| p.s)
+            .filter(move |&s| s > lo && s < hi);
         let v: Vec<f64> = if s0 <= s1 {
             inner.collect()
         } else {
@@ -253,11 +257,23 @@ mod tests {
         for (bad, what) in [
             ("not json", "not a transfer function"),
             (r#"{"points": []}"#, "empty"),
-            (r#"{"points": [{"s":0.5,"rgb":[0,0,0],"tau":1},{"s":0.5,"rgb":[0,0,0],"tau":1}]}"#, "not greater"),
-            (r#"{"points": [{"s":0.6,"rgb":[0,0,0],"tau":1},{"s":0.5,"rgb":[0,0,0],"tau":1}]}"#, "sorted"),
+            (
+                r#"{"points": [{"s":0.5,"rgb":[0,0,0],"tau":1},{"s":0.5,"rgb":[0,0,0],"tau":1}]}"#,
+                "not greater",
+            ),
+            (
+                r#"{"points": [{"s":0.6,"rgb":[0,0,0],"tau":1},{"s":0.5,"rgb":[0,0,0],"tau":1}]}"#,
+                "sorted",
+            ),
             (r#"{"points": [{"s":0.0,"rgb":[0,0,0],"tau":-1}]}"#, "tau"),
-            (r#"{"points": [{"s":0.0,"rgb":[0,0],"tau":1}]}"#, "not a transfer"),
-            (r#"{"range": [1, 0], "points": [{"s":0.0,"rgb":[0,0,0],"tau":1}]}"#, "range"),
+            (
+                r#"{"points": [{"s":0.0,"rgb":[0,0],"tau":1}]}"#,
+                "not a transfer",
+            ),
+            (
+                r#"{"range": [1, 0], "points": [{"s":0.0,"rgb":[0,0,0],"tau":1}]}"#,
+                "range",
+            ),
         ] {
             let e = TransferFunction::from_json(bad, "bad.json").unwrap_err();
             let msg = e.to_string();

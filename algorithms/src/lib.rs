@@ -1,14 +1,18 @@
 //! tetbench algorithms: the mesh model and its loaders, the camera, transfer functions and optics,
 //! visibility sorts and the renderers, shared by the `tetbench` harness and `datasets-gen`.
 
+pub mod alloc;
 pub mod camera;
 pub mod error;
 pub mod image;
 pub mod io;
 pub mod mesh;
 pub mod metrics;
+pub mod optics;
+pub mod render;
 pub mod tf;
 
 pub use error::{Error, Result};
+pub use glam;
 pub use mesh::Mesh;
 pub use tf::TransferFunction;

@@ -1,0 +1,569 @@
+//! PLOT3D reader (CONVENTIONS §9, `datasets/README.md`): a "whole", single-grid xyz file and its
+//! q file. The variant — byte order, a leading grid count of 1, float32 or float64, IBLANK,
+//! Fortran record markers — is found by trying every combination against the file size; the
+//! byte order is the one whose `ni nj nk` are positive and make the sizes agree. Nothing is
+//! allocated before the sizes agree.
+//!
+//! Fields: density, momentum-x/-y/-z, energy, and velocity = |momentum| / density (0 where the
+//! density is 0). Every hex cell is kept and split (5 tets alternating, or 6 with
+//! `Split::Six`): an IBLANK array is read past and ignored, so blanked cells are rendered too.
+//! Mach, alpha, Reynolds number and time go to `field_data`.
+
+use std::path::{Path, PathBuf};
+
+use glam::DVec3;
+
+use crate::error::{Error, Result};
+use crate::io::{split, LoadOptions, Split};
+use crate::mesh::{Field, Mesh};
+
+/// The scalar names a PLOT3D mesh offers.
+pub const PLOT3D_FIELDS: [&str; 6] = [
+    "density",
+    "energy",
+    "velocity",
+    "momentum-x",
+    "momentum-y",
+    "momentum-z",
+];
+
+/// Reads a PLOT3D xyz file and its q file (`opts.q_file`, or the xyz file name with `xyz`
+/// replaced by `q`).
+pub fn read_plot3d(xyz: &Path, opts: &LoadOptions) -> Result<Mesh> {
+    let q = match &opts.q_file {
+        Some(q) => q.clone(),
+        None => q_path(xyz)?,
+    };
+    let xyz_bytes = std::fs::read(xyz).map_err(|e| Error::io(xyz, e))?;
+    if !q.exists() {
+        return Err(Error::input(
+            xyz.display(),
+            format!(
+                "PLOT3D q file {} not found (give it with --q FILE)",
+                q.display()
+            ),
+        ));
+    }
+    let q_bytes = std::fs::read(&q).map_err(|e| Error::io(&q, e))?;
+    parse_plot3d(
+        &xyz_bytes,
+        &q_bytes,
+        &xyz.display().to_string(),
+        &q.display().to_string(),
+        opts,
+    )
+}
+
+/// The q file beside `xyz`: its file name with the last `xyz` replaced by `q`.
+pub fn q_path(xyz: &Path) -> Result<PathBuf> {
+    let name = xyz
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    match name.rfind("xyz") {
+        Some(i) => Ok(xyz.with_file_name(format!("{}q{}", &name[..i], &name[i + 3..]))),
+        None => Err(Error::input(
+            xyz.display(),
+            "cannot name the PLOT3D q file: the file name has no 'xyz' (give it with --q FILE)",
+        )),
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Variant {
+    big: bool,
+    ngrid: bool,
+    markers: bool,
+    f64: bool,
+    iblank: bool,
+}
+
+impl Variant {
+    fn all() -> impl Iterator<Item = Variant> {
+        (0..32u32).map(|b| Variant {
+            big: b & 16 == 0,
+            ngrid: b & 8 != 0,
+            markers: b & 4 != 0,
+            f64: b & 2 != 0,
+            iblank: b & 1 != 0,
+        })
+    }
+    fn fs(self) -> usize {
+        if self.f64 {
+            8
+        } else {
+            4
+        }
+    }
+    fn describe(self) -> String {
+        format!(
+            "{}-endian, {}{}{}{}",
+            if self.big { "big" } else { "little" },
+            if self.f64 { "float64" } else { "float32" },
+            if self.iblank { ", IBLANK" } else { "" },
+            if self.ngrid { ", grid count" } else { "" },
+            if self.markers {
+                ", Fortran record markers"
+            } else {
+                ""
+            },
+        )
+    }
+}
+
+fn i32_at(b: &[u8], off: usize, big: bool) -> Option<i64> {
+    let w: [u8; 4] = b.get(off..off.checked_add(4)?)?.try_into().ok()?;
+    Some(if big {
+        i32::from_be_bytes(w)
+    } else {
+        i32::from_le_bytes(w)
+    } as i64)
+}
+
+/// Reads a record of `len` bytes starting at `off` (with markers when asked); returns the
+/// offset of its data and the offset past it.
+fn record(b: &[u8], off: usize, len: usize, v: Variant) -> Option<(usize, usize)> {
+    if !v.markers {
+        let end = off.checked_add(len)?;
+        return (end <= b.len()).then_some((off, end));
+    }
+    let m = i32_at(b, off, v.big)?;
+    if m < 0 || m as u64 != len as u64 {
+        return None;
+    }
+    let data = off + 4;
+    let end = data.checked_add(len)?;
+    (i32_at(b, end, v.big)? == m).then_some((data, end + 4))
+}
+
+/// Grid count (when present) and dimensions: offset past them.
+fn dims(b: &[u8], v: Variant) -> Option<([usize; 3], usize, usize)> {
+    let mut off = 0;
+    if v.ngrid {
+        let (d, e) = record(b, 0, 4, v)?;
+        if i32_at(b, d, v.big)? != 1 {
+            return None;
+        }
+        off = e;
+    }
+    let (d, e) = record(b, off, 12, v)?;
+    let mut n = [0usize; 3];
+    for (k, x) in n.iter_mut().enumerate() {
+        let val = i32_at(b, d + 4 * k, v.big)?;
+        if val <= 0 {
+            return None;
+        }
+        *x = val as usize;
+    }
+    let count = n[0].checked_mul(n[1])?.checked_mul(n[2])?;
+    Some((n, count, e))
+}
+
+/// xyz layout: dims, offset of the coordinate data. The file size must agree exactly.
+fn xyz_layout(b: &[u8], v: Variant) -> Option<([usize; 3], usize)> {
+    let (d, n, off) = dims(b, v)?;
+    let len =
+        n.checked_mul(3 * v.fs())?
+            .checked_add(if v.iblank { n.checked_mul(4)? } else { 0 })?;
+    if v.markers && len > i32::MAX as usize {
+        return None;
+    }
+    let (data, end) = record(b, off, len, v)?;
+    (end == b.len()).then_some((d, data))
+}
+
+/// q layout: dims, offset of (mach, alpha, re, time), offset of the 5 arrays; trailing bytes
+/// are allowed when `exact` is false.
+fn q_layout(b: &[u8], v: Variant, exact: bool) -> Option<([usize; 3], usize, usize)> {
+    let (d, n, off) = dims(b, v)?;
+    let (h, e) = record(b, off, 4 * v.fs(), v)?;
+    let len = n.checked_mul(5 * v.fs())?;
+    if v.markers && len > i32::MAX as usize {
+        return None;
+    }
+    let (data, end) = record(b, e, len, v)?;
+    (!exact || end == b.len()).then_some((d, h, data))
+}
+
+fn floats(b: &[u8], off: usize, n: usize, v: Variant) -> impl Iterator<Item = f64> + '_ {
+    let fs = v.fs();
+    b[off..off + n * fs].chunks_exact(fs).map(move |c| {
+        if v.f64 {
+            let w: [u8; 8] = c.try_into().unwrap_or([0; 8]);
+            if v.big {
+                f64::from_be_bytes(w)
+            } else {
+                f64::from_le_bytes(w)
+            }
+        } else {
+            let w: [u8; 4] = c.try_into().unwrap_or([0; 4]);
+            (if v.big {
+                f32::from_be_bytes(w)
+            } else {
+                f32::from_le_bytes(w)
+            }) as f64
+        }
+    })
+}
+
+/// Parses a PLOT3D xyz and q pair held in memory; the names are used in messages.
+pub fn parse_plot3d(
+    xyz: &[u8],
+    q: &[u8],
+    xyz_name: &str,
+    q_name: &str,
+    opts: &LoadOptions,
+) -> Result<Mesh> {
+    let active = opts.scalar.as_deref().unwrap_or("density");
+    if !PLOT3D_FIELDS.contains(&active) {
+        return Err(Error::input(
+            xyz_name,
+            format!(
+                "unknown PLOT3D scalar '{}' (choices: {})",
+                active.escape_debug(),
+                PLOT3D_FIELDS.join(", ")
+            ),
+        ));
+    }
+    let Some((xv, (d, xoff))) = Variant::all().find_map(|v| xyz_layout(xyz, v).map(|l| (v, l)))
+    else {
+        let hint = match (
+            i32_at(xyz, 0, true),
+            i32_at(xyz, 4, true),
+            i32_at(xyz, 8, true),
+        ) {
+            (Some(a), Some(b), Some(c)) => {
+                format!(" (it starts with {a} {b} {c} as big-endian int32)")
+            }
+            _ => String::new(),
+        };
+        return Err(Error::input(
+            xyz_name,
+            format!(
+                "not a PLOT3D whole single-grid xyz file: no combination of byte order, precision, \
+                 IBLANK, grid count and record markers matches its size of {} bytes{hint}",
+                xyz.len()
+            ),
+        ));
+    };
+    let n = d[0] * d[1] * d[2];
+    // q: the xyz file's variant first, exact sizes before trailing bytes.
+    let same = |v: Variant| {
+        v.big == xv.big && v.f64 == xv.f64 && v.markers == xv.markers && v.ngrid == xv.ngrid
+    };
+    let qvariants: Vec<Variant> = Variant::all().filter(|v| !v.iblank).collect();
+    let found = [true, false].iter().find_map(|&exact| {
+        qvariants
+            .iter()
+            .filter(|v| same(**v))
+            .chain(qvariants.iter().filter(|v| !same(**v)))
+            .find_map(|&v| q_layout(q, v, exact).filter(|l| l.0 == d).map(|l| (v, l)))
+    });
+    let Some((qv, (_, hoff, qoff))) = found else {
+        let msg = match dims(q, Variant { iblank: false, ..xv }) {
+            Some((qd, _, _)) if qd != d => format!(
+                "q dimensions {}×{}×{} differ from the grid's {}×{}×{}",
+                qd[0], qd[1], qd[2], d[0], d[1], d[2]
+            ),
+            _ => format!(
+                "not a PLOT3D q file for a {}×{}×{} grid: its {} bytes are too few or do not match any layout",
+                d[0],
+                d[1],
+                d[2],
+                q.len()
+            ),
+        };
+        return Err(Error::input(q_name, msg));
+    };
+    let _ = xv.describe();
+    let x: Vec<f64> = floats(xyz, xoff, 3 * n, xv).collect();
+    let positions: Vec<DVec3> = (0..n)
+        .map(|i| DVec3::new(x[i], x[n + i], x[2 * n + i]))
+        .collect();
+    drop(x);
+    let h: Vec<f64> = floats(q, hoff, 4, qv).collect();
+    let qa: Vec<f64> = floats(q, qoff, 5 * n, qv).collect();
+    let arr = |k: usize| qa[k * n..(k + 1) * n].to_vec();
+    let (rho, mx, my, mz, e) = (arr(0), arr(1), arr(2), arr(3), arr(4));
+    let vel: Vec<f64> = (0..n)
+        .map(|i| {
+            if rho[i] == 0.0 {
+                0.0
+            } else {
+                DVec3::new(mx[i], my[i], mz[i]).length() / rho[i]
+            }
+        })
+        .collect();
+    drop(qa);
+    let tets = split::split_structured(xyz_name, d, &positions, opts.split.unwrap_or(Split::Five))?;
+    let f = |name: &str, v: Vec<f64>| Field {
+        name: name.to_string(),
+        steps: vec![v],
+    };
+    let fields = vec![
+        f("density", rho),
+        f("momentum-x", mx),
+        f("momentum-y", my),
+        f("momentum-z", mz),
+        f("energy", e),
+        f("velocity", vel),
+    ];
+    let mut mesh = Mesh::new(xyz_name, positions, tets, fields)?;
+    for (k, name) in ["mach", "alpha", "reynolds", "time"].iter().enumerate() {
+        mesh.field_data.insert(name.to_string(), vec![h[k]]);
+    }
+    mesh.select_field(active, 0)?;
+    Ok(mesh)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 3×2×2 grid in the given variant, with q values; `trailing` junk bytes after q.
+    fn files(v: Variant, trailing: usize) -> (Vec<u8>, Vec<u8>) {
+        let d = [3i32, 2, 2];
+        let n = 12;
+        let int = |x: i32| {
+            if v.big {
+                x.to_be_bytes()
+            } else {
+                x.to_le_bytes()
+            }
+        };
+        let fl = |x: f64| -> Vec<u8> {
+            match (v.f64, v.big) {
+                (true, true) => x.to_be_bytes().to_vec(),
+                (true, false) => x.to_le_bytes().to_vec(),
+                (false, true) => (x as f32).to_be_bytes().to_vec(),
+                (false, false) => (x as f32).to_le_bytes().to_vec(),
+            }
+        };
+        let rec = |out: &mut Vec<u8>, data: Vec<u8>| {
+            if v.markers {
+                out.extend(int(data.len() as i32));
+            }
+            let len = data.len();
+            out.extend(data);
+            if v.markers {
+                out.extend(int(len as i32));
+            }
+        };
+        let mut head = Vec::new();
+        if v.ngrid {
+            rec(&mut head, int(1).to_vec());
+        }
+        rec(&mut head, d.iter().flat_map(|&x| int(x)).collect());
+        let mut xyz = head.clone();
+        let mut data = Vec::new();
+        for c in 0..3 {
+            for idx in 0..n {
+                let (i, j, k) = (idx % 3, (idx / 3) % 2, idx / 6);
+                data.extend(fl([i as f64, j as f64 * 2.0, k as f64 * 0.5][c]));
+            }
+        }
+        if v.iblank {
+            for _ in 0..n {
+                data.extend(int(1));
+            }
+        }
+        rec(&mut xyz, data);
+        let mut q = head;
+        rec(
+            &mut q,
+            [0.5, 1.0, 1e6, 2.0].iter().flat_map(|&x| fl(x)).collect(),
+        );
+        let mut data = Vec::new();
+        for k in 0..5 {
+            for i in 0..n {
+                let val = match k {
+                    0 => {
+                        if i == 0 {
+                            0.0
+                        } else {
+                            1.0 + i as f64
+                        }
+                    }
+                    1 => 3.0,
+                    2 => 4.0,
+                    3 => 0.0,
+                    _ => -(i as f64),
+                };
+                data.extend(fl(val));
+            }
+        }
+        rec(&mut q, data);
+        q.extend(vec![7u8; trailing]);
+        (xyz, q)
+    }
+
+    #[test]
+    fn every_variant_loads() {
+        for v in Variant::all() {
+            let (x, q) = files(v, if v.markers { 0 } else { 13 });
+            let m = parse_plot3d(&x, &q, "g.xyz", "g.q", &LoadOptions::default())
+                .unwrap_or_else(|e| panic!("{}: {e}", v.describe()));
+            assert_eq!(
+                (m.num_vertices(), m.num_tets()),
+                (12, 2 * 5),
+                "{}",
+                v.describe()
+            );
+            assert_eq!(m.positions()[11], DVec3::new(2.0, 2.0, 0.5));
+            assert_eq!(m.active_field(), ("density", 0));
+            assert_eq!(m.negative_tets(), 0);
+            assert_eq!(m.field_data["reynolds"], vec![1e6]);
+            let vel = &m.fields()[5].steps[0];
+            assert_eq!(vel[0], 0.0);
+            assert!((vel[1] - 5.0 / 2.0).abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn options_and_errors() {
+        let v = Variant {
+            big: true,
+            ngrid: false,
+            markers: false,
+            f64: false,
+            iblank: false,
+        };
+        let (x, q) = files(v, 0);
+        let six = LoadOptions {
+            split: Some(Split::Six),
+            scalar: Some("energy".into()),
+            ..Default::default()
+        };
+        let m = parse_plot3d(&x, &q, "g.xyz", "g.q", &six).unwrap();
+        assert_eq!(m.num_tets(), 12);
+        assert_eq!(m.active_field(), ("energy", 0));
+        let bad = LoadOptions {
+            scalar: Some("pressure".into()),
+            ..Default::default()
+        };
+        let e = parse_plot3d(&x, &q, "g.xyz", "g.q", &bad)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "g.xyz: unknown PLOT3D scalar 'pressure' (choices: density, energy, velocity, momentum-x, momentum-y, momentum-z)"
+        );
+        let d = LoadOptions::default();
+        // Truncated xyz, truncated q, q of another grid, lying dimensions, NaN.
+        let e = parse_plot3d(&x[..x.len() - 1], &q, "g.xyz", "g.q", &d)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("g.xyz: not a PLOT3D whole single-grid xyz file"),
+            "{e}"
+        );
+        let e = parse_plot3d(&x, &q[..q.len() - 1], "g.xyz", "g.q", &d)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("g.q: not a PLOT3D q file for a 3×2×2 grid"),
+            "{e}"
+        );
+        let mut q2 = q.clone();
+        q2[3] = 4;
+        let e = parse_plot3d(&x, &q2, "g.xyz", "g.q", &d)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("g.q: q dimensions 4×2×2 differ from the grid's 3×2×2"),
+            "{e}"
+        );
+        let mut x2 = x.clone();
+        x2[..4].copy_from_slice(&0x7fff_ffffi32.to_be_bytes());
+        let e = parse_plot3d(&x2, &q, "g.xyz", "g.q", &d)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("2147483647 2 2"), "{e}");
+        let mut x3 = x.clone();
+        x3[12..16].copy_from_slice(&f32::NAN.to_be_bytes());
+        let e = parse_plot3d(&x3, &q, "g.xyz", "g.q", &d)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("non-finite"), "{e}");
+        assert!(parse_plot3d(&[], &[], "g.xyz", "g.q", &d).is_err());
+    }
+
+    #[test]
+    fn missing_q_file() {
+        let dir = std::env::temp_dir().join(format!("p3d-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let v = Variant {
+            big: true,
+            ngrid: false,
+            markers: false,
+            f64: false,
+            iblank: false,
+        };
+        let (x, _) = files(v, 0);
+        let path = dir.join("gridxyz.bin");
+        std::fs::write(&path, x).unwrap();
+        let e = read_plot3d(&path, &LoadOptions::default()).unwrap_err();
+        assert!(matches!(e, Error::Input(_)));
+        let want = format!(
+            "{}: PLOT3D q file {} not found (give it with --q FILE)",
+            path.display(),
+            dir.join("gridq.bin").display()
+        );
+        assert_eq!(e.to_string(), want);
+        let e = read_plot3d(&dir.join("grid.bin"), &LoadOptions::default()).unwrap_err();
+        assert!(e.to_string().contains("has no 'xyz'"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    fn data_dir() -> Option<PathBuf> {
+        let d = std::env::var_os("TETBENCH_DATA")
+            .map(PathBuf::from)
+            .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/datasets"));
+        d.join("bluntfinxyz.bin").exists().then_some(d)
+    }
+
+    /// The three NASA grids (skipped when the files are absent: they are not committed).
+    #[test]
+    fn real_datasets() {
+        let Some(dir) = data_dir() else {
+            return;
+        };
+        let cases = [
+            ("bluntfinxyz.bin", "density", 40960, 187395, (0.193, 4.98)),
+            ("postxyz.bin", "velocity", 109744, 513375, (0.0, 1.39)),
+            ("combxyz.bin", "density", 47025, 215040, (0.198, 0.710)),
+        ];
+        for (file, scalar, nv, nt, (lo, hi)) in cases {
+            let path = dir.join(file);
+            if !path.exists() {
+                continue;
+            }
+            let opts = LoadOptions {
+                scalar: Some(scalar.into()),
+                ..Default::default()
+            };
+            let m = read_plot3d(&path, &opts).unwrap();
+            assert_eq!((m.num_vertices(), m.num_tets()), (nv, nt), "{file}");
+            let (a, b) = m.scalar_range();
+            eprintln!(
+                "{file}: {nv} vertices, {nt} tets, {scalar} {a}..{b}, degenerate {}",
+                m.degenerate_tets()
+            );
+            let close = |x: f64, y: f64| (x - y).abs() <= 0.005 * y.abs().max(0.01);
+            assert!(
+                close(a, lo) && close(b, hi),
+                "{file}: {scalar} range {a}..{b}"
+            );
+            assert_eq!(m.negative_tets(), 0, "{file}");
+            if file == "bluntfinxyz.bin" {
+                // Conforming: boundary faces are exactly 2 per boundary quad.
+                let (i, j, k) = (39, 31, 31);
+                assert_eq!(
+                    m.boundary_faces().len(),
+                    4 * (i * j + j * k + i * k),
+                    "{file}"
+                );
+            }
+        }
+    }
+}

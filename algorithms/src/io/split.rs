@@ -1,0 +1,774 @@
+//! What the `.vtk`, `.vtu` and PLOT3D readers share: splitting hexahedra (structured and
+//! unstructured), wedges and pyramids into tetrahedra, VTK numeric types, and turning point
+//! arrays into named fields (with `name_t000`, `name_t001`, … grouped as time steps).
+//!
+//! Conformity: neighbouring cells must split a shared quad face along the same diagonal.
+//! - Structured grids: 5 tets per hex, mirrored on cells of odd `i + j + k` (the two
+//!   decompositions pick opposite diagonals on every face, and neighbours have opposite parity),
+//!   or 6 tets per hex (Kuhn) around the `c000`–`c111` diagonal, the same in every cell.
+//! - Unstructured cells: every quad face is cut along the diagonal through its vertex of smallest
+//!   global index (Dompierre et al. 1999), which both cells sharing the face agree on. Pyramids
+//!   give 2 tets and wedges 3. A hexahedron cannot always be cut into 5 or 6 tets that honour
+//!   six such independent diagonals, so each one gets a centre vertex (its scalars the mean of
+//!   the 8 corners) and 2 tets per face: 12 tets. `Split::Five`/`Six` only matter for
+//!   structured grids.
+//!
+//! Tets produced here are oriented positively (two vertices swapped when the signed volume is
+//! negative); tets read as tets are left as the file has them.
+
+use glam::DVec3;
+
+use crate::error::{Error, Result};
+use crate::io::Split;
+use crate::mesh::Field;
+
+pub const VTK_TETRA: u8 = 10;
+pub const VTK_VOXEL: u8 = 11;
+pub const VTK_HEXAHEDRON: u8 = 12;
+pub const VTK_WEDGE: u8 = 13;
+pub const VTK_PYRAMID: u8 = 14;
+
+/// Name of a VTK cell type id, for messages.
+pub fn cell_type_name(t: i64) -> &'static str {
+    match t {
+        1 => "vertex",
+        2 => "poly-vertex",
+        3 => "line",
+        4 => "poly-line",
+        5 => "triangle",
+        6 => "triangle strip",
+        7 => "polygon",
+        8 => "pixel",
+        9 => "quad",
+        10 => "tetra",
+        11 => "voxel",
+        12 => "hexahedron",
+        13 => "wedge",
+        14 => "pyramid",
+        15 => "pentagonal prism",
+        16 => "hexagonal prism",
+        21..=33 => "quadratic cell",
+        42 => "polyhedron",
+        60..=80 => "higher-order cell",
+        _ => "unknown",
+    }
+}
+
+fn corners_for(t: u8) -> Option<usize> {
+    match t {
+        VTK_TETRA => Some(4),
+        VTK_VOXEL | VTK_HEXAHEDRON => Some(8),
+        VTK_WEDGE => Some(6),
+        VTK_PYRAMID => Some(5),
+        _ => None,
+    }
+}
+
+#[inline]
+fn signed_volume(p: &[DVec3], t: [u32; 4]) -> f64 {
+    let a = p[t[0] as usize];
+    (p[t[1] as usize] - a)
+        .cross(p[t[2] as usize] - a)
+        .dot(p[t[3] as usize] - a)
+}
+
+/// `t` with two vertices swapped when its signed volume is negative.
+#[inline]
+pub fn orient(p: &[DVec3], mut t: [u32; 4]) -> [u32; 4] {
+    if signed_volume(p, t) < 0.0 {
+        t.swap(2, 3);
+    }
+    t
+}
+
+/// Corners of a hex cell, local index `x + 2y + 4z`.
+/// 5-tet split for even `i + j + k`: central tet 1-2-4-7 and the four corner tets at 0, 3, 5, 6.
+const FIVE_EVEN: [[usize; 4]; 5] = [
+    [0, 1, 2, 4],
+    [1, 3, 2, 7],
+    [1, 2, 4, 7],
+    [1, 5, 7, 4],
+    [2, 7, 6, 4],
+];
+/// Its mirror image for odd `i + j + k`: central tet 0-3-5-6, corner tets at 1, 2, 4, 7.
+const FIVE_ODD: [[usize; 4]; 5] = [
+    [0, 3, 5, 6],
+    [1, 0, 3, 5],
+    [2, 0, 3, 6],
+    [4, 0, 5, 6],
+    [7, 3, 5, 6],
+];
+/// Kuhn's 6-tet split around the 0–7 diagonal.
+const SIX: [[usize; 4]; 6] = [
+    [0, 1, 3, 7],
+    [0, 3, 2, 7],
+    [0, 2, 6, 7],
+    [0, 6, 4, 7],
+    [0, 4, 5, 7],
+    [0, 5, 1, 7],
+];
+
+/// Number of hex cells of a grid of `dims` points, or `None` on overflow.
+pub fn structured_cells(dims: [usize; 3]) -> Option<usize> {
+    dims.iter()
+        .try_fold(1usize, |acc, &d| acc.checked_mul(d.saturating_sub(1)))
+}
+
+/// Splits a structured grid of `dims` points (index `i + ni·(j + nj·k)`) into tets, every one
+/// oriented positively. `positions` must hold `ni·nj·nk` points.
+pub fn split_structured(
+    source: &str,
+    dims: [usize; 3],
+    positions: &[DVec3],
+    split: Split,
+) -> Result<Vec<[u32; 4]>> {
+    let [ni, nj, nk] = dims;
+    let n = ni
+        .checked_mul(nj)
+        .and_then(|v| v.checked_mul(nk))
+        .filter(|&v| v == positions.len())
+        .ok_or_else(|| {
+            Error::input(
+                source,
+                format!(
+                    "grid dimensions {ni}×{nj}×{nk} do not match the {} points",
+                    positions.len()
+                ),
+            )
+        })?;
+    if n > u32::MAX as usize - 1 {
+        return Err(Error::input(source, "more than 2^32 - 2 grid points"));
+    }
+    let cells = structured_cells(dims).unwrap_or(0);
+    let per = match split {
+        Split::Five => 5,
+        Split::Six => 6,
+    };
+    let mut tets = Vec::with_capacity(cells * per);
+    let idx = |i: usize, j: usize, k: usize| (i + ni * (j + nj * k)) as u32;
+    for k in 0..nk.saturating_sub(1) {
+        for j in 0..nj.saturating_sub(1) {
+            for i in 0..ni.saturating_sub(1) {
+                let c: [u32; 8] = std::array::from_fn(|b| {
+                    idx(i + (b & 1), j + ((b >> 1) & 1), k + ((b >> 2) & 1))
+                });
+                let pattern: &[[usize; 4]] = match split {
+                    Split::Five if (i + j + k) % 2 == 0 => &FIVE_EVEN,
+                    Split::Five => &FIVE_ODD,
+                    Split::Six => &SIX,
+                };
+                for t in pattern {
+                    tets.push(orient(positions, t.map(|v| c[v])));
+                }
+            }
+        }
+    }
+    Ok(tets)
+}
+
+/// Splits unstructured VTK cells into tets. Cell `i` is `conn[offsets[i]..offsets[i + 1]]` of
+/// type `types[i]`; `offsets` has `types.len() + 1` entries, non-decreasing, within `conn`.
+/// Tets are kept as they are; voxels, hexahedra, wedges and pyramids are split when `split` is
+/// given (hexahedra add a centre vertex to `positions` and to every array of `point_arrays`)
+/// and refused otherwise; any other type is refused.
+pub fn split_cells(
+    source: &str,
+    types: &[u8],
+    offsets: &[usize],
+    conn: &[i64],
+    positions: &mut Vec<DVec3>,
+    point_arrays: &mut [Vec<f64>],
+    split: Option<Split>,
+) -> Result<Vec<[u32; 4]>> {
+    let npts = positions.len();
+    if offsets.len() != types.len() + 1 {
+        return Err(Error::Internal(format!(
+            "{source}: {} cell offsets for {} cells",
+            offsets.len(),
+            types.len()
+        )));
+    }
+    // Check the whole cell list first: types, sizes, indices.
+    let mut counts = [0usize; 15];
+    for (c, &t) in types.iter().enumerate() {
+        let Some(k) = corners_for(t) else {
+            return Err(Error::input(
+                source,
+                format!(
+                    "cell {c} has VTK type {t} ({}); only tetra (10), voxel (11), hexahedron \
+                     (12), wedge (13) and pyramid (14) cells are read",
+                    cell_type_name(t as i64)
+                ),
+            ));
+        };
+        let (a, b) = (offsets[c], offsets[c + 1]);
+        if b < a || b > conn.len() {
+            return Err(Error::input(
+                source,
+                format!("cell {c}: offsets {a}..{b} out of range"),
+            ));
+        }
+        if b - a != k {
+            return Err(Error::input(
+                source,
+                format!(
+                    "cell {c} ({}) has {} vertices, expected {k}",
+                    cell_type_name(t as i64),
+                    b - a
+                ),
+            ));
+        }
+        if let Some(&v) = conn[a..b]
+            .iter()
+            .find(|&&v| v < 0 || v as u64 >= npts as u64)
+        {
+            return Err(Error::input(
+                source,
+                format!("cell {c}: vertex index {v} out of range (points: {npts})"),
+            ));
+        }
+        counts[t as usize] += 1;
+    }
+    let non_tets: Vec<String> = [VTK_VOXEL, VTK_HEXAHEDRON, VTK_WEDGE, VTK_PYRAMID]
+        .iter()
+        .filter(|&&t| counts[t as usize] > 0)
+        .map(|&t| {
+            format!(
+                "{} {} cells (VTK type {t})",
+                counts[t as usize],
+                cell_type_name(t as i64)
+            )
+        })
+        .collect();
+    if split.is_none() && !non_tets.is_empty() {
+        return Err(Error::input(
+            source,
+            format!(
+                "{} are not tetrahedra; ask for a split (--split 5 or 6) to split them",
+                non_tets.join(" and ")
+            ),
+        ));
+    }
+    let hexes = counts[VTK_VOXEL as usize] + counts[VTK_HEXAHEDRON as usize];
+    if npts.saturating_add(hexes) > u32::MAX as usize - 1 {
+        return Err(Error::input(
+            source,
+            "more than 2^32 - 2 vertices after splitting",
+        ));
+    }
+    let cap = counts[VTK_TETRA as usize]
+        + 12 * hexes
+        + 3 * counts[VTK_WEDGE as usize]
+        + 2 * counts[VTK_PYRAMID as usize];
+    let mut tets = Vec::with_capacity(cap);
+    positions.reserve(hexes);
+    for a in point_arrays.iter_mut() {
+        a.reserve(hexes);
+    }
+    for (c, &t) in types.iter().enumerate() {
+        let v: Vec<u32> = conn[offsets[c]..offsets[c + 1]]
+            .iter()
+            .map(|&x| x as u32)
+            .collect();
+        match t {
+            VTK_TETRA => tets.push([v[0], v[1], v[2], v[3]]),
+            VTK_PYRAMID => split_pyramid(positions, [v[0], v[1], v[2], v[3]], v[4], &mut tets),
+            VTK_WEDGE => split_wedge(positions, std::array::from_fn(|i| v[i]), &mut tets),
+            VTK_VOXEL => {
+                let h = [v[0], v[1], v[3], v[2], v[4], v[5], v[7], v[6]];
+                split_hex(positions, point_arrays, h, &mut tets);
+            }
+            _ => split_hex(
+                positions,
+                point_arrays,
+                std::array::from_fn(|i| v[i]),
+                &mut tets,
+            ),
+        }
+    }
+    Ok(tets)
+}
+
+/// The two triangles of quad `q` (in cyclic order) cut along the diagonal through its vertex of
+/// smallest index.
+fn quad_triangles(q: [u32; 4]) -> [[u32; 3]; 2] {
+    let m = (0..4).min_by_key(|&i| q[i]).unwrap_or(0);
+    let r = |k: usize| q[(m + k) % 4];
+    [[r(0), r(1), r(2)], [r(0), r(2), r(3)]]
+}
+
+fn split_pyramid(p: &[DVec3], base: [u32; 4], apex: u32, out: &mut Vec<[u32; 4]>) {
+    for [a, b, c] in quad_triangles(base) {
+        out.push(orient(p, [a, b, c, apex]));
+    }
+}
+
+/// VTK wedge: triangles 0-1-2 and 3-4-5, edges 0-3, 1-4, 2-5.
+fn split_wedge(p: &[DVec3], w: [u32; 6], out: &mut Vec<[u32; 4]>) {
+    let m = (0..6).min_by_key(|&i| w[i]).unwrap_or(0);
+    // Relabel so the smallest vertex is 0 (a rotation, or the top/bottom mirror).
+    let (q, top) = (m % 3, m >= 3);
+    let tri = |s: usize| [s + q, s + (q + 1) % 3, s + (q + 2) % 3];
+    let (lo, hi) = if top {
+        (tri(3), tri(0))
+    } else {
+        (tri(0), tri(3))
+    };
+    let r = [lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]].map(|i| w[i]);
+    // Both quad faces at vertex 0 are cut through it: the tet 0-3-4-5 comes off, leaving a
+    // pyramid on the quad 1-2-5-4 with apex 0.
+    out.push(orient(p, [r[0], r[3], r[4], r[5]]));
+    split_pyramid(p, [r[1], r[2], r[5], r[4]], r[0], out);
+}
+
+/// VTK hexahedron (bottom 0-1-2-3, top 4-5-6-7): centre vertex and 2 tets per face.
+fn split_hex(p: &mut Vec<DVec3>, arrays: &mut [Vec<f64>], h: [u32; 8], out: &mut Vec<[u32; 4]>) {
+    const FACES: [[usize; 4]; 6] = [
+        [0, 3, 2, 1],
+        [4, 5, 6, 7],
+        [0, 1, 5, 4],
+        [1, 2, 6, 5],
+        [2, 3, 7, 6],
+        [3, 0, 4, 7],
+    ];
+    let centre = h.iter().map(|&v| p[v as usize]).sum::<DVec3>() / 8.0;
+    let ci = p.len() as u32;
+    p.push(centre);
+    for a in arrays.iter_mut() {
+        let mean = h.iter().map(|&v| a[v as usize]).sum::<f64>() / 8.0;
+        a.push(mean);
+    }
+    for f in FACES {
+        for [a, b, c] in quad_triangles(f.map(|i| h[i])) {
+            out.push(orient(p, [a, b, c, ci]));
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Numeric types shared by the VTK readers.
+
+/// A VTK numeric type.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DType {
+    I8,
+    U8,
+    I16,
+    U16,
+    I32,
+    U32,
+    I64,
+    U64,
+    F32,
+    F64,
+}
+
+impl DType {
+    pub fn size(self) -> usize {
+        match self {
+            DType::I8 | DType::U8 => 1,
+            DType::I16 | DType::U16 => 2,
+            DType::I32 | DType::U32 | DType::F32 => 4,
+            DType::I64 | DType::U64 | DType::F64 => 8,
+        }
+    }
+    pub fn is_float(self) -> bool {
+        matches!(self, DType::F32 | DType::F64)
+    }
+    /// XML names (`Float32`, `Int64`, …).
+    pub fn from_xml(s: &str) -> Option<DType> {
+        Some(match s {
+            "Int8" => DType::I8,
+            "UInt8" => DType::U8,
+            "Int16" => DType::I16,
+            "UInt16" => DType::U16,
+            "Int32" => DType::I32,
+            "UInt32" => DType::U32,
+            "Int64" => DType::I64,
+            "UInt64" => DType::U64,
+            "Float32" => DType::F32,
+            "Float64" => DType::F64,
+            _ => return None,
+        })
+    }
+    /// Legacy names (`float`, `vtktypeint64`, …), case-insensitive.
+    pub fn from_legacy(s: &str) -> Option<DType> {
+        Some(match s.to_ascii_lowercase().as_str() {
+            "char" | "signed_char" | "vtktypeint8" => DType::I8,
+            "unsigned_char" | "vtktypeuint8" => DType::U8,
+            "short" | "vtktypeint16" => DType::I16,
+            "unsigned_short" | "vtktypeuint16" => DType::U16,
+            "int" | "vtktypeint32" => DType::I32,
+            "unsigned_int" | "vtktypeuint32" => DType::U32,
+            "long" | "vtktypeint64" | "vtkidtype" | "long_long" => DType::I64,
+            "unsigned_long" | "vtktypeuint64" | "unsigned_long_long" => DType::U64,
+            "float" | "vtktypefloat32" => DType::F32,
+            "double" | "vtktypefloat64" => DType::F64,
+            _ => return None,
+        })
+    }
+}
+
+fn word<const N: usize>(b: &[u8], big: bool) -> [u8; N] {
+    let mut w = [0u8; N];
+    w.copy_from_slice(&b[..N]);
+    if big {
+        w.reverse();
+    }
+    w
+}
+
+/// Decodes `bytes` (a whole number of values) as f64.
+pub fn decode_f64(bytes: &[u8], ty: DType, big: bool) -> Vec<f64> {
+    let s = ty.size();
+    bytes
+        .chunks_exact(s)
+        .map(|c| match ty {
+            DType::I8 => c[0] as i8 as f64,
+            DType::U8 => c[0] as f64,
+            DType::I16 => i16::from_le_bytes(word(c, big)) as f64,
+            DType::U16 => u16::from_le_bytes(word(c, big)) as f64,
+            DType::I32 => i32::from_le_bytes(word(c, big)) as f64,
+            DType::U32 => u32::from_le_bytes(word(c, big)) as f64,
+            DType::I64 => i64::from_le_bytes(word(c, big)) as f64,
+            DType::U64 => u64::from_le_bytes(word(c, big)) as f64,
+            DType::F32 => f32::from_le_bytes(word(c, big)) as f64,
+            DType::F64 => f64::from_le_bytes(word(c, big)),
+        })
+        .collect()
+}
+
+/// Decodes `bytes` as integers; float types and values past `i64::MAX` are refused.
+pub fn decode_i64(bytes: &[u8], ty: DType, big: bool) -> std::result::Result<Vec<i64>, String> {
+    if ty.is_float() {
+        return Err(format!(
+            "has a floating-point type ({ty:?}) where integers are needed"
+        ));
+    }
+    let s = ty.size();
+    bytes
+        .chunks_exact(s)
+        .map(|c| {
+            Ok(match ty {
+                DType::I8 => c[0] as i8 as i64,
+                DType::U8 => c[0] as i64,
+                DType::I16 => i16::from_le_bytes(word(c, big)) as i64,
+                DType::U16 => u16::from_le_bytes(word(c, big)) as i64,
+                DType::I32 => i32::from_le_bytes(word(c, big)) as i64,
+                DType::U32 => u32::from_le_bytes(word(c, big)) as i64,
+                DType::I64 => i64::from_le_bytes(word(c, big)),
+                _ => {
+                    let v = u64::from_le_bytes(word(c, big));
+                    i64::try_from(v).map_err(|_| format!("integer {v} out of range"))?
+                }
+            })
+        })
+        .collect()
+}
+
+/// Turns `[0, n0, n0 + n1, …]`-style end offsets into validated start/end offsets: `ends` are
+/// the VTK XML (and legacy 5.1 without the leading 0) cell end offsets.
+pub fn offsets_from_ends(
+    source: &str,
+    what: &str,
+    ends: &[i64],
+    conn_len: usize,
+) -> Result<Vec<usize>> {
+    let mut out = Vec::with_capacity(ends.len() + 1);
+    out.push(0usize);
+    for (i, &e) in ends.iter().enumerate() {
+        let prev = *out.last().unwrap_or(&0);
+        if e < prev as i64 || e as u64 > conn_len as u64 {
+            return Err(Error::input(
+                source,
+                format!(
+                    "{what}: offset {e} of cell {i} is out of order or past the {conn_len} \
+                     connectivity entries"
+                ),
+            ));
+        }
+        out.push(e as usize);
+    }
+    Ok(out)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Point arrays → fields.
+
+/// `name_t012` → (`name`, 12).
+fn time_step_name(name: &str) -> Option<(&str, usize)> {
+    let i = name.rfind("_t")?;
+    let digits = &name[i + 2..];
+    if i == 0
+        || digits.is_empty()
+        || digits.len() > 9
+        || !digits.bytes().all(|b| b.is_ascii_digit())
+    {
+        return None;
+    }
+    Some((&name[..i], digits.parse().ok()?))
+}
+
+/// The array name a writer gives step `k` of a field with `n` steps.
+pub fn step_name(name: &str, k: usize, n: usize) -> String {
+    if n <= 1 {
+        return name.to_string();
+    }
+    let width = (n - 1).to_string().len().max(3);
+    format!("{name}_t{k:0width$}")
+}
+
+/// Named 1-component point arrays, in file order, to fields: names repeated get a `_2`, `_3`…
+/// suffix; two or more arrays `base_t000`, `base_t001`, … numbered 0..n without gaps become one
+/// field `base` with n time steps, placed where its first step was.
+pub fn make_fields(arrays: Vec<(String, Vec<f64>)>) -> Vec<Field> {
+    let mut named: Vec<(String, Vec<f64>)> = Vec::with_capacity(arrays.len());
+    for (name, v) in arrays {
+        let mut n = name.clone();
+        let mut k = 2;
+        while named.iter().any(|(m, _)| *m == n) {
+            n = format!("{name}_{k}");
+            k += 1;
+        }
+        named.push((n, v));
+    }
+    // Which bases form complete step sequences?
+    let mut groups: Vec<(String, Vec<usize>)> = Vec::new();
+    for (i, (name, _)) in named.iter().enumerate() {
+        if let Some((base, _)) = time_step_name(name) {
+            match groups.iter_mut().find(|(b, _)| b == base) {
+                Some(g) => g.1.push(i),
+                None => groups.push((base.to_string(), vec![i])),
+            }
+        }
+    }
+    let mut grouped: Vec<Option<usize>> = vec![None; named.len()]; // array → group index
+    let mut good: Vec<(String, Vec<usize>)> = Vec::new();
+    for (base, members) in groups {
+        let mut steps: Vec<(usize, usize)> = members
+            .iter()
+            .map(|&i| (time_step_name(&named[i].0).map_or(0, |x| x.1), i))
+            .collect();
+        steps.sort_unstable();
+        let complete = steps.len() >= 2
+            && steps.iter().enumerate().all(|(k, &(s, _))| s == k)
+            && !named.iter().any(|(n, _)| *n == base);
+        if complete {
+            for &(_, i) in &steps {
+                grouped[i] = Some(good.len());
+            }
+            good.push((base, steps.into_iter().map(|(_, i)| i).collect()));
+        }
+    }
+    let mut values: Vec<Option<Vec<f64>>> = named
+        .iter_mut()
+        .map(|(_, v)| Some(std::mem::take(v)))
+        .collect();
+    let mut fields = Vec::new();
+    for i in 0..named.len() {
+        match grouped[i] {
+            None => fields.push(Field {
+                name: named[i].0.clone(),
+                steps: vec![values[i].take().unwrap_or_default()],
+            }),
+            // A group goes where its first array (in file order) was.
+            Some(g) if good[g].1.iter().min() == Some(&i) => {
+                let steps = good[g]
+                    .1
+                    .iter()
+                    .map(|&j| values[j].take().unwrap_or_default())
+                    .collect();
+                fields.push(Field {
+                    name: good[g].0.clone(),
+                    steps,
+                });
+            }
+            Some(_) => {}
+        }
+    }
+    fields
+}
+
+/// Finds a field by name, also as `base_tNNN` for step NNN of a field with steps.
+pub fn find_field(fields: &[Field], name: &str) -> Option<(String, usize)> {
+    if let Some(f) = fields.iter().find(|f| f.name == name) {
+        return Some((f.name.clone(), 0));
+    }
+    let (base, k) = time_step_name(name)?;
+    fields
+        .iter()
+        .find(|f| f.name == base && f.steps.len() > k)
+        .map(|f| (f.name.clone(), k))
+}
+
+/// Makes `wanted` (the user's choice: refused when unknown) or else `default` (the file's
+/// choice: ignored when unknown) the active field.
+pub fn select_active(
+    mesh: &mut crate::mesh::Mesh,
+    source: &str,
+    wanted: Option<&str>,
+    default: Option<&str>,
+) -> Result<()> {
+    if let Some(w) = wanted {
+        let Some((name, k)) = find_field(mesh.fields(), w) else {
+            let known: Vec<&str> = mesh.fields().iter().map(|f| f.name.as_str()).collect();
+            return Err(Error::input(
+                source,
+                format!("no point field '{w}' (fields: {})", known.join(", ")),
+            ));
+        };
+        return mesh.select_field(&name, k);
+    }
+    if let Some((name, k)) = default.and_then(|d| find_field(mesh.fields(), d)) {
+        mesh.select_field(&name, k)?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::Mesh;
+
+    fn grid(dims: [usize; 3]) -> Vec<DVec3> {
+        let mut p = Vec::new();
+        for k in 0..dims[2] {
+            for j in 0..dims[1] {
+                for i in 0..dims[0] {
+                    p.push(DVec3::new(i as f64, j as f64 * 1.5, k as f64 * 0.7));
+                }
+            }
+        }
+        p
+    }
+
+    #[test]
+    fn structured_splits_conform_and_are_positive() {
+        for (split, per) in [(Split::Five, 5), (Split::Six, 6)] {
+            let dims = [4, 3, 5];
+            let p = grid(dims);
+            let tets = split_structured("g", dims, &p, split).unwrap();
+            assert_eq!(tets.len(), 3 * 2 * 4 * per);
+            let n = p.len();
+            let m = Mesh::with_scalars("g", p, tets, "s", vec![0.0; n]).unwrap();
+            assert_eq!(m.negative_tets(), 0);
+            assert_eq!(m.degenerate_tets(), 0);
+            let total: f64 = m.volumes().iter().sum();
+            assert!((total - 3.0 * 2.0 * 1.5 * 4.0 * 0.7).abs() < 1e-9);
+            // Conforming: only the outer quads (2 triangles each) are boundary.
+            assert_eq!(m.boundary_faces().len(), 2 * 2 * (3 * 2 + 3 * 4 + 2 * 4));
+            assert!(m.is_convex());
+        }
+    }
+
+    /// Two hexahedra, a wedge and a pyramid glued together conform after splitting.
+    #[test]
+    fn unstructured_cells_conform() {
+        // Points of a 3×2×2 grid (x fastest) plus an apex and a wedge ridge.
+        let mut p = grid([3, 2, 2]);
+        let g = |i: u32, j: u32, k: u32| i + 3 * (j + 2 * k);
+        p.push(DVec3::new(1.0, -1.0, 0.35)); // 12: pyramid apex below the y=0 face of hex 0
+        p.push(DVec3::new(3.0, 0.0, 0.35)); // 13, 14: wedge beyond x=2
+        p.push(DVec3::new(3.0, 1.5, 0.35));
+        let hex = |i: u32| {
+            vec![
+                g(i, 0, 0),
+                g(i + 1, 0, 0),
+                g(i + 1, 1, 0),
+                g(i, 1, 0),
+                g(i, 0, 1),
+                g(i + 1, 0, 1),
+                g(i + 1, 1, 1),
+                g(i, 1, 1),
+            ]
+        };
+        let vox = |i: u32| {
+            let h = hex(i);
+            vec![h[0], h[1], h[3], h[2], h[4], h[5], h[7], h[6]]
+        };
+        // Pyramid on the y=0 face of hex 0 (base order makes the apex side consistent).
+        let pyr = vec![g(0, 0, 0), g(1, 0, 0), g(1, 0, 1), g(0, 0, 1), 12];
+        // Wedge on the x=2 face of hex 1: triangles (2,0,0)-(2,1,0)-13... use the quad as 2 edges.
+        let wedge = vec![g(2, 0, 0), 13, g(2, 0, 1), g(2, 1, 0), 14, g(2, 1, 1)];
+        let cells = [
+            (VTK_HEXAHEDRON, hex(0)),
+            (VTK_VOXEL, vox(1)),
+            (VTK_PYRAMID, pyr),
+            (VTK_WEDGE, wedge),
+        ];
+        let types: Vec<u8> = cells.iter().map(|c| c.0).collect();
+        let mut offsets = vec![0];
+        let mut conn = Vec::new();
+        for (_, c) in &cells {
+            conn.extend(c.iter().map(|&v| v as i64));
+            offsets.push(conn.len());
+        }
+        let mut s = vec![(0..p.len()).map(|i| i as f64).collect::<Vec<f64>>()];
+        let err = split_cells(
+            "m",
+            &types,
+            &offsets,
+            &conn,
+            &mut p.clone(),
+            &mut s.clone(),
+            None,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(err.contains("1 hexahedron cells (VTK type 12)"), "{err}");
+        let tets = split_cells(
+            "m",
+            &types,
+            &offsets,
+            &conn,
+            &mut p,
+            &mut s,
+            Some(Split::Five),
+        )
+        .unwrap();
+        assert_eq!(tets.len(), 12 + 12 + 2 + 3);
+        assert_eq!(p.len(), 17);
+        assert_eq!(
+            s[0][15],
+            (0..8).map(|i| hex(0)[i] as f64).sum::<f64>() / 8.0
+        );
+        let m = Mesh::with_scalars("m", p, tets, "s", s.pop().unwrap()).unwrap();
+        assert_eq!(m.negative_tets(), 0);
+        assert_eq!(m.degenerate_tets(), 0);
+        assert_eq!(m.adjacency().nonmanifold_faces, 0);
+        // Boundary: 10 outer quads of the two hexes not covered + 4 pyramid triangles
+        // + wedge: 2 triangles + 2 quads; every quad is 2 triangles.
+        assert_eq!(m.boundary_faces().len(), 2 * 8 + 4 + 2 + 2 * 2);
+    }
+
+    #[test]
+    fn unknown_and_bad_cells_are_refused() {
+        let mut p = vec![DVec3::ZERO; 4];
+        let e = split_cells("m", &[5], &[0, 3], &[0, 1, 2], &mut p, &mut [], None).unwrap_err();
+        assert!(e.to_string().contains("VTK type 5 (triangle)"), "{e}");
+        let e = split_cells("m", &[10], &[0, 4], &[0, 1, 2, 4], &mut p, &mut [], None).unwrap_err();
+        assert!(e.to_string().contains("out of range"), "{e}");
+        let e = split_cells("m", &[10], &[0, 3], &[0, 1, 2], &mut p, &mut [], None).unwrap_err();
+        assert!(e.to_string().contains("expected 4"), "{e}");
+    }
+
+    #[test]
+    fn time_steps_are_grouped() {
+        let a = |n: &str, v: f64| (n.to_string(), vec![v]);
+        let f = make_fields(vec![
+            a("p", 0.0),
+            a("T_t001", 2.0),
+            a("T_t000", 1.0),
+            a("q_t000", 3.0),
+            a("p", 4.0),
+            a("r_t000", 5.0),
+            a("r_t002", 6.0),
+        ]);
+        let names: Vec<&str> = f.iter().map(|f| f.name.as_str()).collect();
+        assert_eq!(names, ["p", "T", "q_t000", "p_2", "r_t000", "r_t002"]);
+        assert_eq!(f[1].steps, vec![vec![1.0], vec![2.0]]);
+        assert_eq!(step_name("T", 1, 2), "T_t001");
+        assert_eq!(step_name("T", 0, 1), "T");
+        assert_eq!(find_field(&f, "T_t001"), Some(("T".into(), 1)));
+    }
+}

@@ -1,0 +1,131 @@
+//! The renderer plug-in interface and the one registry of renderers by name.
+//!
+//! A renderer is one module behind the [`Renderer`] trait; it is made known by one line in
+//! [`REGISTRY`]. Everything else — the CLI, experiments, the JBU wrapper — looks renderers up
+//! here by name (after pbrt-v4's and Mitsuba's plugin registries).
+
+use std::time::Instant;
+
+use crate::camera::Camera;
+use crate::error::{Error, Result};
+use crate::image::Image;
+use crate::mesh::Mesh;
+use crate::tf::TransferFunction;
+
+pub mod raycast;
+
+/// Options a renderer is made with.
+#[derive(Clone, Debug, Default)]
+pub struct RenderOptions {
+    /// Visibility sort by name (renderers that sort); `None` picks the renderer's default.
+    pub sort: Option<String>,
+    /// Integrator by name; `None` picks the renderer's default.
+    pub integrator: Option<String>,
+}
+
+/// Time of one frame split by stage (CONVENTIONS §7), in milliseconds. Stages an algorithm does
+/// not have stay 0.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FrameTimes {
+    pub project_ms: f64,
+    pub sort_ms: f64,
+    pub draw_ms: f64,
+    pub readback_ms: f64,
+    pub total_ms: f64,
+}
+
+/// One rendered frame with its timing and the renderer's own counters (e.g. `cell_steps`).
+#[derive(Clone, Debug)]
+pub struct Frame {
+    pub image: Image,
+    pub times: FrameTimes,
+    pub counters: Vec<(&'static str, f64)>,
+}
+
+/// A volume renderer for tetrahedral meshes.
+pub trait Renderer: Send {
+    /// The full variant name, e.g. `cpu-pt` or `reference`.
+    fn name(&self) -> String;
+    /// The sort and integrator actually used (for CSV rows); empty when not applicable.
+    fn sort_name(&self) -> String {
+        String::new()
+    }
+    fn integrator_name(&self) -> String;
+    /// Builds everything the renderer holds for this mesh and transfer function. The harness
+    /// times this as setup and measures the heap bytes it leaves allocated.
+    fn prepare(&mut self, mesh: &Mesh, tf: &TransferFunction) -> Result<()>;
+    /// Renders one frame. `prepare` must have been called with the same mesh.
+    fn render(&mut self, mesh: &Mesh, camera: &Camera) -> Result<Frame>;
+    /// Bytes of GPU buffers and textures held for this mesh (0 for CPU renderers).
+    fn gpu_bytes(&self) -> u64 {
+        0
+    }
+    /// What ran it: `cpu` or the GPU adapter's name.
+    fn device(&self) -> String {
+        "cpu".to_string()
+    }
+}
+
+/// A registry entry.
+pub struct RendererInfo {
+    pub name: &'static str,
+    pub description: &'static str,
+    /// Sorts it accepts (empty: it needs none).
+    pub sorts: &'static [&'static str],
+    /// Integrators it accepts.
+    pub integrators: &'static [&'static str],
+    pub make: fn(&RenderOptions) -> Result<Box<dyn Renderer>>,
+}
+
+/// Every renderer, by name: adding a variant is one new module and one line here.
+pub static REGISTRY: &[&RendererInfo] = &[&raycast::RAYCAST, &raycast::REFERENCE];
+
+/// Looks a renderer up by name.
+pub fn info(name: &str) -> Result<&'static RendererInfo> {
+    REGISTRY
+        .iter()
+        .copied()
+        .find(|r| r.name == name)
+        .ok_or_else(|| {
+            Error::Input(format!(
+                "unknown renderer '{name}' (known: {})",
+                names().join(", ")
+            ))
+        })
+}
+
+/// Names of all registered renderers.
+pub fn names() -> Vec<&'static str> {
+    REGISTRY.iter().map(|r| r.name).collect()
+}
+
+/// Makes a renderer by name, checking the sort and integrator names against what it accepts.
+pub fn make(name: &str, opts: &RenderOptions) -> Result<Box<dyn Renderer>> {
+    let info = info(name)?;
+    if let Some(s) = &opts.sort {
+        if !info.sorts.contains(&s.as_str()) {
+            return Err(Error::Input(format!(
+                "renderer '{name}' does not take sort '{s}' (it takes: {})",
+                if info.sorts.is_empty() {
+                    "none".to_string()
+                } else {
+                    info.sorts.join(", ")
+                }
+            )));
+        }
+    }
+    if let Some(i) = &opts.integrator {
+        if !info.integrators.contains(&i.as_str()) {
+            return Err(Error::Input(format!(
+                "renderer '{name}' does not take integrator '{i}' (it takes: {})",
+                info.integrators.join(", ")
+            )));
+        }
+    }
+    (info.make)(opts)
+}
+
+/// Milliseconds since `t`.
+pub fn ms_since(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}

@@ -1,0 +1,556 @@
+//! The tetrahedral ray caster: every ray enters the mesh through a boundary face (found in a
+//! BVH over the boundary faces), walks from cell to cell through the face adjacency, and
+//! re-enters at the next boundary face along the ray where the mesh is not convex
+//! (Garrity 1990; Bunyk, Kaufman & Silva 1997). With the `exact` integrator it is `reference`,
+//! the yardstick every image error is measured against, and it works in f64 throughout.
+//!
+//! **Watertightness.** Which face a ray crosses is decided from the signs of the Plücker
+//! products of the ray with the face's edges (Platis & Theoharis 2003). Each edge's product is
+//! computed once per ray from the edge oriented by global vertex index, so the two cells that
+//! share an edge always agree on its sign. A product that is exactly zero (the ray meets the
+//! edge's line) gets its sign by Simulation of Simplicity: the ray is shifted by ε·r + ε²·u (r, u
+//! the camera's right and up vectors), which decides every edge not parallel to the ray in one
+//! consistent way. So a ray through a shared edge or vertex is neither lost nor counted twice.
+//! The same products give the barycentric coordinates of the crossing point on the face, from
+//! which the depth and scalar are interpolated; the exit of one cell is the entry of the next.
+
+use std::time::Instant;
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::{ms_since, Frame, FrameTimes, RenderOptions, Renderer, RendererInfo};
+use crate::camera::{Camera, Ray};
+use crate::error::{Error, Result};
+use crate::image::Image;
+use crate::mesh::{Mesh, BOUNDARY, FACE_VERTS};
+use crate::optics::{composite_under, integrator, Integrator, Segment, INTEGRATORS};
+use crate::tf::TransferFunction;
+
+/// Registry entry for `raycast` (any integrator; `partial` by default).
+pub static RAYCAST: RendererInfo = RendererInfo {
+    name: "raycast",
+    description: "CPU ray caster walking cell to cell through face adjacency (rayon over rows)",
+    sorts: &[],
+    integrators: &INTEGRATORS,
+    make: |o| {
+        Ok(Box::new(RayCaster::new(
+            o.integrator.as_deref().unwrap_or("partial"),
+            "raycast",
+        )))
+    },
+};
+
+/// Registry entry for `reference`: `raycast` with the `exact` integrator.
+pub static REFERENCE: RendererInfo = RendererInfo {
+    name: "reference",
+    description: "the exact reference: raycast with the exact integrator, f64 throughout",
+    sorts: &[],
+    integrators: &["exact"],
+    make: |_: &RenderOptions| Ok(Box::new(RayCaster::new("exact", "reference"))),
+};
+
+/// Remaining transmittance below which a ray stops (its further contribution is < 1e-12).
+const TERMINATE_T: f64 = 1e-12;
+
+pub struct RayCaster {
+    name: &'static str,
+    integrator_name: String,
+    state: Option<Prepared>,
+}
+
+struct Prepared {
+    /// Vertex positions in the frame centred on the bounding box (CONVENTIONS §1).
+    pos: Vec<DVec3>,
+    /// Per-vertex transfer-function coordinate `s`.
+    s: Vec<f64>,
+    /// Orientation of each tet: +1, −1 (0 never stored: flat tets take +1 and are retried).
+    sign: Vec<i8>,
+    bvh: Bvh,
+    integrator: Box<dyn Integrator>,
+    /// 1 / L: world length to optical length.
+    inv_l: f64,
+    /// Tolerance for re-entry at the same depth (concave boundary edges).
+    t_eps: f64,
+    max_steps: usize,
+}
+
+impl RayCaster {
+    pub fn new(integrator: &str, name: &'static str) -> RayCaster {
+        RayCaster {
+            name,
+            integrator_name: integrator.to_string(),
+            state: None,
+        }
+    }
+}
+
+/// Counters of a frame: cell steps, rays that hit the step limit, walks that found no
+/// consistent exit face (flat cells), and re-entries through the boundary.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RayStats {
+    pub steps: u64,
+    pub lost: u64,
+    pub fallbacks: u64,
+    pub reentries: u64,
+}
+
+impl std::ops::AddAssign for RayStats {
+    fn add_assign(&mut self, o: RayStats) {
+        self.steps += o.steps;
+        self.lost += o.lost;
+        self.fallbacks += o.fallbacks;
+        self.reentries += o.reentries;
+    }
+}
+
+impl Renderer for RayCaster {
+    fn name(&self) -> String {
+        self.name.to_string()
+    }
+    fn integrator_name(&self) -> String {
+        self.integrator_name.clone()
+    }
+
+    fn prepare(&mut self, mesh: &Mesh, tf: &TransferFunction) -> Result<()> {
+        self.state = None;
+        let integrator = integrator(&self.integrator_name, tf)?;
+        let c = mesh.bbox().center();
+        let l = mesh.diagonal();
+        let map = tf.scalar_map(mesh.scalar_range());
+        let pos: Vec<DVec3> = mesh.positions().par_iter().map(|p| *p - c).collect();
+        let s: Vec<f64> = mesh.scalars().par_iter().map(|&v| map.s(v)).collect();
+        let sign: Vec<i8> = mesh
+            .volumes()
+            .par_iter()
+            .map(|&v| if v < 0.0 { -1 } else { 1 })
+            .collect();
+        mesh.adjacency();
+        let bvh = Bvh::build(mesh, &pos);
+        self.state = Some(Prepared {
+            pos,
+            s,
+            sign,
+            bvh,
+            integrator,
+            inv_l: if l > 0.0 { 1.0 / l } else { 0.0 },
+            t_eps: 1e-10 * l.max(f64::MIN_POSITIVE),
+            max_steps: 64 + 8 * mesh.num_tets(),
+        });
+        Ok(())
+    }
+
+    fn render(&mut self, mesh: &Mesh, camera: &Camera) -> Result<Frame> {
+        let t0 = Instant::now();
+        let (px, stats) = self.render_f64(mesh, camera)?;
+        let mut image = Image::new(camera.width, camera.height);
+        for (o, p) in image.pixels.iter_mut().zip(&px) {
+            *o = p.map(|c| c as f32);
+        }
+        let draw_ms = ms_since(t0);
+        let rays = camera.width as u64 * camera.height as u64;
+        Ok(Frame {
+            image,
+            times: FrameTimes {
+                draw_ms,
+                total_ms: draw_ms,
+                ..Default::default()
+            },
+            counters: vec![
+                ("rays", rays as f64),
+                ("cell_steps", stats.steps as f64),
+                ("lost_rays", stats.lost as f64),
+                ("walk_fallbacks", stats.fallbacks as f64),
+                ("reentries", stats.reentries as f64),
+            ],
+        })
+    }
+}
+
+impl RayCaster {
+    /// Renders in f64 (premultiplied RGBA per pixel, row-major), with the ray counters. The
+    /// `Renderer::render` image is this rounded to f32.
+    pub fn render_f64(&self, mesh: &Mesh, camera: &Camera) -> Result<(Vec<[f64; 4]>, RayStats)> {
+        let st = self
+            .state
+            .as_ref()
+            .ok_or_else(|| Error::Internal("raycast: render before prepare".into()))?;
+        let w = camera.width.max(1) as usize;
+        let mut px = vec![[0.0f64; 4]; w * camera.height as usize];
+        let stats = px
+            .par_chunks_mut(w)
+            .enumerate()
+            .map(|(j, row)| {
+                let mut rs = RayStats::default();
+                for (i, p) in row.iter_mut().enumerate() {
+                    let ray = camera.pixel_ray(i as u32, j as u32);
+                    let (seg, s) = st.cast(mesh, camera, &ray);
+                    rs += s;
+                    *p = [seg.rgb[0], seg.rgb[1], seg.rgb[2], seg.alpha];
+                }
+                rs
+            })
+            .reduce(RayStats::default, |mut a, b| {
+                a += b;
+                a
+            });
+        Ok((px, stats))
+    }
+}
+
+/// A ray with the perturbation directions of the Simulation of Simplicity tie-break.
+struct RayCtx {
+    o: DVec3,
+    d: DVec3,
+    /// A second point on the ray, `o + d`: with `o` it defines the line every predicate uses.
+    q: DVec3,
+    /// d × r and d × u: first- and second-order terms of the perturbed products.
+    d_r: DVec3,
+    d_u: DVec3,
+}
+
+#[inline]
+fn coord(p: DVec3) -> robust::Coord3D<f64> {
+    robust::Coord3D {
+        x: p.x,
+        y: p.y,
+        z: p.z,
+    }
+}
+
+impl RayCtx {
+    fn new(ray: &Ray, cam: &Camera) -> RayCtx {
+        RayCtx {
+            o: ray.origin,
+            d: ray.dir,
+            q: ray.origin + ray.dir,
+            d_r: ray.dir.cross(cam.right),
+            d_u: ray.dir.cross(cam.up),
+        }
+    }
+
+    /// Plücker product of the ray with the edge from `u` to `v` (callers pass the lower global
+    /// index first), `det[u − o, v − o, q − o]`, with an exact sign (Shewchuk's adaptive
+    /// orient3d): every decision is then that of one real line, the one through `o` and `q`.
+    /// Returns the value and its sign after the symbolic perturbation.
+    #[inline]
+    fn side(&self, pu: DVec3, pv: DVec3) -> (f64, bool) {
+        let p = robust::orient3d(coord(pu), coord(pv), coord(self.q), coord(self.o));
+        if p != 0.0 {
+            return (p, p > 0.0);
+        }
+        // The line meets the edge's line: shift it by ε·r + ε²·u. The ε-term of
+        // det[u − o − εδ, v − o − εδ, d] is det[δ, u − v, d] = (u − v)·(d × δ).
+        let e = pu - pv;
+        let p1 = e.dot(self.d_r);
+        if p1 != 0.0 {
+            return (0.0, p1 > 0.0);
+        }
+        (0.0, e.dot(self.d_u) >= 0.0)
+    }
+}
+
+/// A face crossing: face index within the tet, depth `t` and scalar `s` at the crossing.
+#[derive(Clone, Copy)]
+struct Crossing {
+    face: usize,
+    t: f64,
+    s: f64,
+}
+
+impl Prepared {
+    /// Products of the ray with the directed edge `a → b` (global vertex ids), consistent for
+    /// every cell that has the edge.
+    #[inline]
+    fn edge(&self, ray: &RayCtx, a: u32, b: u32) -> (f64, bool) {
+        if a < b {
+            ray.side(self.pos[a as usize], self.pos[b as usize])
+        } else {
+            let (v, s) = ray.side(self.pos[b as usize], self.pos[a as usize]);
+            (-v, !s)
+        }
+    }
+
+    /// Whether the ray crosses triangle `tri` (circulation order) with all products of sign
+    /// `want`; if so the depth and scalar at the crossing.
+    #[inline]
+    fn cross_face(&self, ray: &RayCtx, tri: [u32; 3], want: bool) -> Option<(f64, f64)> {
+        let mut w = [0.0; 3];
+        for k in 0..3 {
+            // Weight of vertex k is the product with the opposite edge.
+            let (v, s) = self.edge(ray, tri[(k + 1) % 3], tri[(k + 2) % 3]);
+            if s != want {
+                return None;
+            }
+            w[k] = v.abs();
+        }
+        Some(self.interpolate(ray, tri, w))
+    }
+
+    #[inline]
+    fn interpolate(&self, ray: &RayCtx, tri: [u32; 3], w: [f64; 3]) -> (f64, f64) {
+        let sum = w[0] + w[1] + w[2];
+        let w = if sum > 0.0 && sum.is_finite() {
+            w.map(|x| x / sum)
+        } else {
+            [1.0 / 3.0; 3]
+        };
+        let p = w[0] * self.pos[tri[0] as usize]
+            + w[1] * self.pos[tri[1] as usize]
+            + w[2] * self.pos[tri[2] as usize];
+        let s = w[0] * self.s[tri[0] as usize]
+            + w[1] * self.s[tri[1] as usize]
+            + w[2] * self.s[tri[2] as usize];
+        ((p - ray.o).dot(ray.d), s)
+    }
+
+    /// The face through which the ray leaves tet `t` that it entered through face `fin`.
+    /// Returns the crossing and whether the fallback (no consistent face) was used.
+    fn exit(&self, mesh: &Mesh, ray: &RayCtx, t: usize, fin: usize) -> (Crossing, bool) {
+        let tet = mesh.tets()[t];
+        let pos_tet = self.sign[t] > 0;
+        for want in [pos_tet, !pos_tet] {
+            for f in (0..4).filter(|&f| f != fin) {
+                let tri = FACE_VERTS[f].map(|k| tet[k]);
+                if let Some((tt, s)) = self.cross_face(ray, tri, want) {
+                    return (Crossing { face: f, t: tt, s }, false);
+                }
+            }
+        }
+        // No face is consistent (a flat or numerically inverted cell): leave through the face
+        // whose products are closest to consistent, at its own crossing point.
+        let mut best = (f64::NEG_INFINITY, (fin + 1) % 4);
+        for f in (0..4).filter(|&f| f != fin) {
+            let tri = FACE_VERTS[f].map(|k| tet[k]);
+            let sgn = if pos_tet { 1.0 } else { -1.0 };
+            let m = (0..3)
+                .map(|k| sgn * self.edge(ray, tri[(k + 1) % 3], tri[(k + 2) % 3]).0)
+                .fold(f64::INFINITY, f64::min);
+            if m > best.0 {
+                best = (m, f);
+            }
+        }
+        let f = best.1;
+        let tri = FACE_VERTS[f].map(|k| tet[k]);
+        let w: [f64; 3] =
+            std::array::from_fn(|k| self.edge(ray, tri[(k + 1) % 3], tri[(k + 2) % 3]).0.abs());
+        let (tt, s) = self.interpolate(ray, tri, w);
+        (Crossing { face: f, t: tt, s }, true)
+    }
+
+    /// Casts one ray; returns the composited pixel and the ray's counters.
+    fn cast(&self, mesh: &Mesh, cam: &Camera, ray: &Ray) -> (Segment, RayStats) {
+        let ctx = RayCtx::new(ray, cam);
+        let adj = &mesh.adjacency().neighbors;
+        let mut acc = Segment::default();
+        let mut stats = RayStats::default();
+        let mut t_min = f64::NEG_INFINITY;
+        let mut exclude = u32::MAX;
+        let mut first = true;
+        'rays: while let Some((bt, bf, mut t_in, mut s_in)) =
+            self.bvh
+                .first_entry(self, mesh.tets(), &ctx, t_min - self.t_eps, exclude)
+        {
+            if !first {
+                stats.reentries += 1;
+            }
+            first = false;
+            let (mut tet, mut fin) = (bt as usize, bf);
+            loop {
+                stats.steps += 1;
+                if stats.steps as usize > self.max_steps {
+                    stats.lost += 1;
+                    break 'rays;
+                }
+                let (x, fallback) = self.exit(mesh, &ctx, tet, fin);
+                stats.fallbacks += fallback as u64;
+                let t_out = x.t.max(t_in);
+                let l = (t_out - t_in) * self.inv_l;
+                if l > 0.0 {
+                    composite_under(&mut acc, self.integrator.segment(s_in, x.s, l));
+                    if 1.0 - acc.alpha < TERMINATE_T {
+                        break 'rays;
+                    }
+                }
+                let nb = adj[tet][x.face];
+                if nb == BOUNDARY {
+                    t_min = t_out;
+                    exclude = (4 * tet + x.face) as u32;
+                    break;
+                }
+                let nbu = nb as usize;
+                let back = (0..4).find(|&f| adj[nbu][f] == tet as u32);
+                let Some(back) = back else {
+                    // Adjacency is symmetric by construction; treat a break as boundary.
+                    t_min = t_out;
+                    exclude = (4 * tet + x.face) as u32;
+                    break;
+                };
+                tet = nbu;
+                fin = back;
+                t_in = t_out;
+                s_in = x.s;
+            }
+        }
+        (acc, stats)
+    }
+}
+
+/// A bounding-volume hierarchy over the boundary faces, for the first entry of a ray at or
+/// beyond a depth.
+struct Bvh {
+    nodes: Vec<BvhNode>,
+    /// Boundary faces as 4·tet + face, in leaf order.
+    faces: Vec<u32>,
+}
+
+#[derive(Clone, Copy)]
+struct BvhNode {
+    min: DVec3,
+    max: DVec3,
+    /// Leaf: first face and count (count > 0). Inner: index of the left child (right follows it).
+    start: u32,
+    count: u32,
+}
+
+const LEAF_SIZE: usize = 4;
+
+impl Bvh {
+    fn build(mesh: &Mesh, pos: &[DVec3]) -> Bvh {
+        let mut faces: Vec<u32> = mesh.boundary_faces().to_vec();
+        let tri = |bf: u32| mesh.face_vertices(bf as usize / 4, bf as usize % 4);
+        let centroid = |bf: u32| {
+            let v = tri(bf);
+            (pos[v[0] as usize] + pos[v[1] as usize] + pos[v[2] as usize]) / 3.0
+        };
+        let mut nodes = Vec::with_capacity(2 * faces.len() / LEAF_SIZE + 1);
+        // Iterative build with an explicit stack of (node index, start, end).
+        nodes.push(BvhNode {
+            min: DVec3::ZERO,
+            max: DVec3::ZERO,
+            start: 0,
+            count: 0,
+        });
+        let mut stack = vec![(0usize, 0usize, faces.len())];
+        while let Some((ni, a, b)) = stack.pop() {
+            let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+            let (mut clo, mut chi) = (lo, hi);
+            for &f in &faces[a..b] {
+                for v in tri(f) {
+                    lo = lo.min(pos[v as usize]);
+                    hi = hi.max(pos[v as usize]);
+                }
+                let c = centroid(f);
+                clo = clo.min(c);
+                chi = chi.max(c);
+            }
+            nodes[ni].min = lo;
+            nodes[ni].max = hi;
+            if b - a <= LEAF_SIZE {
+                nodes[ni].start = a as u32;
+                nodes[ni].count = (b - a) as u32;
+                continue;
+            }
+            let ext = chi - clo;
+            let axis = if ext.x >= ext.y && ext.x >= ext.z {
+                0
+            } else if ext.y >= ext.z {
+                1
+            } else {
+                2
+            };
+            let mid = (a + b) / 2;
+            faces[a..b].select_nth_unstable_by(mid - a, |&p, &q| {
+                centroid(p)[axis].total_cmp(&centroid(q)[axis])
+            });
+            // Children are stored side by side: left at `start`, right at `start + 1`.
+            let left = nodes.len();
+            nodes.push(nodes[ni]);
+            nodes.push(nodes[ni]);
+            nodes[ni].start = left as u32;
+            nodes[ni].count = 0;
+            stack.push((left + 1, mid, b));
+            stack.push((left, a, mid));
+        }
+        Bvh { nodes, faces }
+    }
+
+    /// Slab test: the parameter interval where the ray is inside the box, clipped to
+    /// [t_lo, t_hi]; expanded by a relative epsilon so grazing rays are not lost.
+    #[inline]
+    fn hit_box(n: &BvhNode, ray: &RayCtx, t_lo: f64, t_hi: f64) -> bool {
+        let mut t0 = t_lo;
+        let mut t1 = t_hi;
+        for k in 0..3 {
+            let pad = 1e-9 * (n.max[k] - n.min[k]).abs().max(1e-300);
+            let (lo, hi) = (n.min[k] - pad, n.max[k] + pad);
+            let d = ray.d[k];
+            let o = ray.o[k];
+            if d == 0.0 {
+                if o < lo || o > hi {
+                    return false;
+                }
+                continue;
+            }
+            let inv = 1.0 / d;
+            let (mut a, mut b) = ((lo - o) * inv, (hi - o) * inv);
+            if a > b {
+                std::mem::swap(&mut a, &mut b);
+            }
+            t0 = t0.max(a);
+            t1 = t1.min(b);
+            if t0 > t1 {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// The nearest boundary face the ray enters at depth ≥ `t_min`, other than `exclude`:
+    /// (tet, face, depth, scalar).
+    fn first_entry(
+        &self,
+        st: &Prepared,
+        tets: &[[u32; 4]],
+        ray: &RayCtx,
+        t_min: f64,
+        exclude: u32,
+    ) -> Option<(u32, usize, f64, f64)> {
+        if self.faces.is_empty() {
+            return None;
+        }
+        let mut best: Option<(u32, usize, f64, f64)> = None;
+        let mut best_t = f64::INFINITY;
+        let mut stack = [0u32; 64];
+        let mut sp = 1usize;
+        while sp > 0 {
+            sp -= 1;
+            let n = &self.nodes[stack[sp] as usize];
+            if !Self::hit_box(n, ray, t_min, best_t) {
+                continue;
+            }
+            if n.count > 0 {
+                for &bf in &self.faces[n.start as usize..(n.start + n.count) as usize] {
+                    if bf == exclude {
+                        continue;
+                    }
+                    let (t, f) = (bf as usize / 4, bf as usize % 4);
+                    let tri = FACE_VERTS[f].map(|k| tets[t][k]);
+                    // Entering: the products have the sign opposite to leaving.
+                    let entering = st.sign[t] <= 0;
+                    if let Some((tt, s)) = st.cross_face(ray, tri, entering) {
+                        if tt >= t_min && tt < best_t {
+                            best_t = tt;
+                            best = Some((t as u32, f, tt, s));
+                        }
+                    }
+                }
+            } else if sp + 2 <= stack.len() {
+                stack[sp] = n.start + 1;
+                stack[sp + 1] = n.start;
+                sp += 2;
+            }
+        }
+        best
+    }
+}

@@ -32,6 +32,14 @@ pub struct LoadOptions {
 }
 
 pub mod off;
+pub mod plot3d;
+pub mod split;
+pub mod vtk;
+pub mod vtu;
+
+pub use plot3d::read_plot3d;
+pub use vtk::read_vtk;
+pub use vtu::{read_vtu, write_vtu};
 
 /// Writes a file through a temporary sibling and renames it into place, so that a failure never
 /// leaves a half-written output.
@@ -145,48 +153,35 @@ pub fn load_path(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
         .file_name()
         .map(|f| f.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
-    let mut mesh = match extension(path).as_str() {
-        "off" => off::read_off(path, opts)?,
-        _ if fname.contains("xyz") => read_other(path, "plot3d", opts)?,
-        e @ ("vtk" | "vtu") => read_other(path, e, opts)?,
-        e => {
-            return Err(Error::Input(format!(
-                "{}: unknown mesh format '.{e}' (known: .off, .vtk, .vtu, PLOT3D *xyz*)",
-                path.display()
-            )))
+    // The vtk, vtu and PLOT3D readers apply `opts.scalar` themselves (including `name_tNNN`
+    // time steps); `.off` has one field, which the option may only name.
+    match extension(path).as_str() {
+        "off" => {
+            let mut mesh = off::read_off(path, opts)?;
+            if let Some(s) = &opts.scalar {
+                mesh.select_field(s, 0)
+                    .map_err(|e| Error::Input(format!("{}: {e}", path.display())))?;
+            }
+            Ok(mesh)
         }
-    };
-    if let Some(s) = &opts.scalar {
-        if mesh.active_field().0 != s {
-            mesh.select_field(s, 0)
-                .map_err(|e| Error::Input(format!("{}: {e}", path.display())))?;
-        }
+        "vtk" => vtk::read_vtk(path, opts),
+        "vtu" => vtu::read_vtu(path, opts),
+        _ if fname.contains("xyz") => plot3d::read_plot3d(path, opts),
+        e => Err(Error::Input(format!(
+            "{}: unknown mesh format '.{e}' (known: .off, .vtk, .vtu, PLOT3D *xyz*)",
+            path.display()
+        ))),
     }
-    Ok(mesh)
 }
 
 /// Writes a mesh, choosing the writer by extension (`.off` or `.vtu`).
 pub fn write(mesh: &Mesh, path: &Path) -> Result<()> {
     match extension(path).as_str() {
         "off" => off::write_off(mesh, path),
-        "vtu" => write_other(mesh, path),
+        "vtu" => vtu::write_vtu(mesh, path),
         e => Err(Error::Input(format!(
             "{}: cannot write '.{e}' (known: .off, .vtu)",
             path.display()
         ))),
     }
-}
-
-// The readers and the .vtu writer land in their own modules; until then these say so.
-fn read_other(path: &Path, kind: &str, _opts: &LoadOptions) -> Result<Mesh> {
-    Err(Error::Input(format!(
-        "{}: {kind} reader not built in",
-        path.display()
-    )))
-}
-fn write_other(_mesh: &Mesh, path: &Path) -> Result<()> {
-    Err(Error::Input(format!(
-        "{}: .vtu writer not built in",
-        path.display()
-    )))
 }

@@ -266,16 +266,16 @@ pub fn parse_plot3d(
                 qd[0], qd[1], qd[2], d[0], d[1], d[2]
             ),
             _ => format!(
-                "not a PLOT3D q file for a {}×{}×{} grid: its {} bytes are too few or do not match any layout",
+                "not a PLOT3D q file for a {}×{}×{} grid ({}): its {} bytes are too few or match no layout",
                 d[0],
                 d[1],
                 d[2],
+                xv.describe(),
                 q.len()
             ),
         };
         return Err(Error::input(q_name, msg));
     };
-    let _ = xv.describe();
     let x: Vec<f64> = floats(xyz, xoff, 3 * n, xv).collect();
     let positions: Vec<DVec3> = (0..n)
         .map(|i| DVec3::new(x[i], x[n + i], x[2 * n + i]))

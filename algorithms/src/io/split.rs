@@ -266,10 +266,10 @@ pub fn split_cells(
         a.reserve(hexes);
     }
     for (c, &t) in types.iter().enumerate() {
-        let v: Vec<u32> = conn[offsets[c]..offsets[c + 1]]
-            .iter()
-            .map(|&x| x as u32)
-            .collect();
+        let mut v = [0u32; 8];
+        for (d, &x) in v.iter_mut().zip(&conn[offsets[c]..offsets[c + 1]]) {
+            *d = x as u32;
+        }
         match t {
             VTK_TETRA => tets.push([v[0], v[1], v[2], v[3]]),
             VTK_PYRAMID => split_pyramid(positions, [v[0], v[1], v[2], v[3]], v[4], &mut tets),

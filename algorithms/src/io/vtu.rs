@@ -842,7 +842,8 @@ impl Appended {
 }
 
 /// Writes `mesh` as a `.vtu` (appended raw, see the module docs). The file is written next to
-/// `path` under a temporary name and renamed, so a failure leaves no partial file.
+/// `path` under a temporary name and renamed ([`crate::io::atomic_write`]), so a failure
+/// leaves no partial file.
 pub fn write_vtu(mesh: &Mesh, path: &Path) -> Result<()> {
     let mut app = Appended { data: Vec::new() };
     let mut x = String::new();
@@ -927,31 +928,11 @@ pub fn write_vtu(mesh: &Mesh, path: &Path) -> Result<()> {
     );
     x.push_str("      </Cells>\n    </Piece>\n  </UnstructuredGrid>\n  <AppendedData encoding=\"raw\">\n   _");
 
-    let dir = path
-        .parent()
-        .filter(|d| !d.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let fname = path
-        .file_name()
-        .map(|f| f.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "out.vtu".into());
-    let tmp = dir.join(format!(".{fname}.{}.tmp", std::process::id()));
-    let result = (|| -> std::io::Result<()> {
-        let f = std::fs::File::create(&tmp)?;
-        let mut w = std::io::BufWriter::new(f);
+    crate::io::atomic_write(path, |w| {
         w.write_all(x.as_bytes())?;
         w.write_all(&app.data)?;
-        w.write_all(b"\n  </AppendedData>\n</VTKFile>\n")?;
-        let f = w.into_inner().map_err(|e| e.into_error())?;
-        f.sync_all()?;
-        drop(f);
-        std::fs::rename(&tmp, path)
-    })();
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(Error::io(path, e));
-    }
-    Ok(())
+        w.write_all(b"\n  </AppendedData>\n</VTKFile>\n")
+    })
 }
 
 #[cfg(test)]
@@ -1060,7 +1041,7 @@ pub(crate) mod tests {
             let blocks: Vec<&[u8]> = raw.chunks(bs).collect();
             h.extend(hdr(blocks.len()));
             h.extend(hdr(bs));
-            h.extend(hdr(if raw.len() % bs == 0 {
+            h.extend(hdr(if raw.len().is_multiple_of(bs) {
                 0
             } else {
                 raw.len() % bs
@@ -1312,6 +1293,39 @@ pub(crate) mod tests {
         lie[at..at + 8].copy_from_slice(&(1u64 << 50).to_le_bytes());
         let m = err(&lie);
         assert!(m.contains("header says"), "{m}");
+    }
+
+    #[test]
+    fn empty_mesh_and_pieces() {
+        let empty = ASCII
+            .replace("NumberOfCells=\"2\"", "NumberOfCells=\"0\"")
+            .replace(">0 1 2 3 1 2 3 4<", "><")
+            .replace(">4 8<", "><")
+            .replace(">10 10<", "><");
+        let m = err(empty.as_bytes());
+        assert!(m.contains("mesh has no tetrahedra"), "{m}");
+        // Two pieces of one tet each: indices are per piece.
+        let a = ASCII.find("<Piece").unwrap();
+        let b = ASCII.find("</Piece>").unwrap() + "</Piece>".len();
+        let piece = |conn: &str| {
+            ASCII[a..b]
+                .replace("NumberOfCells=\"2\"", "NumberOfCells=\"1\"")
+                .replace(">0 1 2 3 1 2 3 4<", &format!(">{conn}<"))
+                .replace(">4 8<", ">4<")
+                .replace(">10 10<", ">10<")
+                .replace(">0 1</DataArray>", ">0</DataArray>")
+        };
+        let two = format!(
+            "{}{}{}{}",
+            &ASCII[..a],
+            piece("0 1 2 3"),
+            piece("1 2 3 4"),
+            &ASCII[b..]
+        );
+        let m = parse_vtu(two.as_bytes(), "p.vtu", &LoadOptions::default()).unwrap();
+        assert_eq!(m.num_vertices(), 10);
+        assert_eq!(m.tets(), &[[0, 1, 2, 3], [6, 7, 8, 9]]);
+        assert_eq!(m.scalars()[5..], [0.0, 1.0, 2.0, 3.0, 4.0]);
     }
 
     #[test]

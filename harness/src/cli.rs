@@ -1,0 +1,112 @@
+//! Command-line definitions (clap). Names and flags of CONVENTIONS §8 are fixed.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand};
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "tetbench",
+    version,
+    about = "Benchmark volume renderers for unstructured tetrahedral meshes side by side",
+    after_help = "Examples:
+  tetbench info blunt
+  tetbench info mesh.vtu --json
+  tetbench render post --renderer reference --size 512x512 --view 30,20 --out post.exr
+  tetbench render spx --renderer raycast --integrator partial --out spx.png
+  tetbench compare test.exr reference.exr
+  tetbench list
+
+MESH is a file (.off, .vtk, .vtu, PLOT3D *xyz*), one of the NASA grids blunt, post, comb
+(looked up in $TETBENCH_DATA, else ../shared/datasets), or a datasets-gen name, optionally
+with a size: spx, fighter:200000, hard-slivers."
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Print a mesh's size, scalar range, bounding box, degenerate tets, boundary and convexity.
+    #[command(after_help = "Example: tetbench info post --json")]
+    Info {
+        #[command(flatten)]
+        mesh: MeshArgs,
+        /// Print one JSON object instead of `name: value` lines.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Render one image.
+    #[command(
+        after_help = "Example: tetbench render blunt --renderer reference --view 0,0 --size 256x256 --out blunt.exr"
+    )]
+    Render(RenderArgs),
+    /// Compare a test image against a reference image (CONVENTIONS §6).
+    #[command(after_help = "Example: tetbench compare cpu-pt.exr reference.exr --json")]
+    Compare {
+        /// The image under test (.exr or .png).
+        test: PathBuf,
+        /// The reference image (.exr or .png).
+        reference: PathBuf,
+        #[arg(long)]
+        json: bool,
+    },
+    /// List renderers, sorts, integrators, transfer-function presets and datasets.
+    List,
+}
+
+/// How a mesh is found and read.
+#[derive(Args, Debug, Clone)]
+pub struct MeshArgs {
+    /// Mesh file, short name (blunt, post, comb) or datasets-gen name[:tets].
+    pub mesh: String,
+    /// Scalar field to use (PLOT3D: density, energy, velocity, momentum-x|y|z).
+    #[arg(long)]
+    pub scalar: Option<String>,
+    /// PLOT3D q file (default: the xyz file name with `xyz` replaced by `q`).
+    #[arg(long = "q")]
+    pub q_file: Option<PathBuf>,
+    /// Split hexahedra (and wedges, pyramids) into tets: 5 or 6 per hex.
+    #[arg(long)]
+    pub split: Option<u8>,
+    /// Read a .off file with 1-based indices.
+    #[arg(long)]
+    pub one_based: bool,
+    /// Seed for datasets-gen meshes.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+}
+
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    #[command(flatten)]
+    pub mesh: MeshArgs,
+    /// Renderer name (see `tetbench list`).
+    #[arg(long)]
+    pub renderer: String,
+    /// Visibility sort (renderers that sort).
+    #[arg(long)]
+    pub sort: Option<String>,
+    /// Integrator: average, partial, preint, exact.
+    #[arg(long)]
+    pub integrator: Option<String>,
+    /// Transfer function: a JSON file or a preset (default, cool-warm, xray).
+    #[arg(long, default_value = "default")]
+    pub tf: String,
+    /// View as AZ,EL in degrees.
+    #[arg(long, default_value = "0,0", allow_hyphen_values = true)]
+    pub view: String,
+    /// ortho or persp.
+    #[arg(long, default_value = "ortho")]
+    pub projection: String,
+    /// Image size WxH.
+    #[arg(long, default_value = "512x512")]
+    pub size: String,
+    /// Output image (.exr or .png).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Print the timing split as JSON.
+    #[arg(long)]
+    pub json: bool,
+}

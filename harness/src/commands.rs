@@ -1,0 +1,305 @@
+//! The subcommands: each reads its inputs, calls the library, prints `name: value` lines (or JSON).
+
+use std::time::Instant;
+
+use algorithms::camera::{Camera, Projection, View};
+use algorithms::image::Image;
+use algorithms::io::{self, LoadOptions, Split};
+use algorithms::render::{self, RenderOptions};
+use algorithms::{alloc, metrics, optics, tf, Error, Mesh, Result, TransferFunction};
+use serde_json::{json, Map, Value};
+
+use crate::cli::{Cli, Command, MeshArgs, RenderArgs};
+
+pub fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Info { mesh, json } => info(&mesh, json),
+        Command::Render(args) => render_cmd(&args),
+        Command::Compare {
+            test,
+            reference,
+            json,
+        } => {
+            let a = Image::read(&test)?;
+            let b = Image::read(&reference)?;
+            let e = metrics::compare(&a, &b).map_err(|e| {
+                Error::Input(format!(
+                    "{} vs {}: {e}",
+                    test.display(),
+                    reference.display()
+                ))
+            })?;
+            print_pairs(e.fields().iter().map(|(k, v)| (*k, json!(v))), json);
+            Ok(())
+        }
+        Command::List => {
+            list();
+            Ok(())
+        }
+    }
+}
+
+/// Prints `name: value` lines, or one JSON object.
+fn print_pairs<'a>(pairs: impl IntoIterator<Item = (&'a str, Value)>, as_json: bool) {
+    let pairs: Vec<(&str, Value)> = pairs.into_iter().collect();
+    if as_json {
+        let mut m = Map::new();
+        for (k, v) in pairs {
+            m.insert(k.to_string(), v);
+        }
+        println!("{}", Value::Object(m));
+    } else {
+        for (k, v) in pairs {
+            match v {
+                Value::String(s) => println!("{k}: {s}"),
+                Value::Number(n) => match (n.as_u64(), n.as_i64(), n.as_f64()) {
+                    (Some(u), _, _) => println!("{k}: {u}"),
+                    (_, Some(i), _) => println!("{k}: {i}"),
+                    (_, _, Some(f)) => println!("{k}: {}", fmt_f64(f)),
+                    _ => println!("{k}: {n}"),
+                },
+                // serde_json turns inf/NaN into null; say what it was.
+                Value::Null => println!("{k}: inf"),
+                other => println!("{k}: {other}"),
+            }
+        }
+    }
+}
+
+/// A float for `name: value` lines: integers without a fraction, plain decimals in the usual
+/// range, exponent notation for the very small and very large.
+pub fn fmt_f64(v: f64) -> String {
+    if !v.is_finite() {
+        return v.to_string();
+    }
+    let a = v.abs();
+    if v == v.trunc() && a < 1e15 {
+        format!("{}", v as i64)
+    } else if (1e-4..1e15).contains(&a) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
+/// A float for JSON output: inf becomes the string "inf" rather than null.
+fn num(v: f64) -> Value {
+    if v.is_finite() {
+        json!(v)
+    } else {
+        json!(v.to_string())
+    }
+}
+
+/// Loads a mesh from a file, a short name, or a datasets-gen name (`name` or `name:tets`).
+pub fn load_mesh(args: &MeshArgs) -> Result<Mesh> {
+    let split = match args.split {
+        None => None,
+        Some(5) => Some(Split::Five),
+        Some(6) => Some(Split::Six),
+        Some(n) => {
+            return Err(Error::Input(format!(
+                "--split {n}: expected 5 or 6 tets per hexahedron"
+            )))
+        }
+    };
+    let opts = LoadOptions {
+        split,
+        scalar: args.scalar.clone(),
+        q_file: args.q_file.clone(),
+        one_based: args.one_based,
+    };
+    let name = args.mesh.as_str();
+    let is_file = std::path::Path::new(name).exists();
+    let short = io::SHORT_NAMES.iter().any(|(n, _, _)| *n == name);
+    if !is_file && !short {
+        let (gen, tets) = match name.split_once(':') {
+            Some((g, n)) => {
+                let t = n.parse::<usize>().map_err(|_| {
+                    Error::Input(format!("{name}: size after ':' must be a tet count"))
+                })?;
+                (g, Some(t))
+            }
+            None => (name, None),
+        };
+        if datasets_gen::generators().iter().any(|g| g.name == gen) {
+            let mut mesh = datasets_gen::generate(gen, tets, args.seed)?;
+            if let Some(s) = &args.scalar {
+                mesh.select_field(s, 0)?;
+            }
+            return Ok(mesh);
+        }
+        return Err(Error::Input(format!(
+            "{name}: no such file, and not a dataset name (see `tetbench list`)"
+        )));
+    }
+    io::load(name, &opts)
+}
+
+fn info(args: &MeshArgs, as_json: bool) -> Result<()> {
+    let t0 = Instant::now();
+    let mesh = load_mesh(args)?;
+    let load_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let bb = mesh.bbox();
+    let (lo, hi) = mesh.scalar_range();
+    let (field, step) = mesh.active_field();
+    let fields: Vec<String> = mesh
+        .fields()
+        .iter()
+        .map(|f| {
+            if f.steps.len() > 1 {
+                format!("{}[{} steps]", f.name, f.steps.len())
+            } else {
+                f.name.clone()
+            }
+        })
+        .collect();
+    let adj = mesh.adjacency();
+    let pairs = vec![
+        ("vertices", json!(mesh.num_vertices())),
+        ("tets", json!(mesh.num_tets())),
+        (
+            "scalar_range",
+            if as_json {
+                json!([lo, hi])
+            } else {
+                json!(format!("[{lo}, {hi}]"))
+            },
+        ),
+        (
+            "bbox",
+            if as_json {
+                json!([bb.min.to_array(), bb.max.to_array()])
+            } else {
+                json!(format!(
+                    "[{}, {}, {}] [{}, {}, {}]",
+                    bb.min.x, bb.min.y, bb.min.z, bb.max.x, bb.max.y, bb.max.z
+                ))
+            },
+        ),
+        ("degenerate_tets", json!(mesh.degenerate_tets())),
+        ("boundary_faces", json!(mesh.boundary_faces().len())),
+        ("convex", json!(mesh.is_convex())),
+        ("diagonal", json!(mesh.diagonal())),
+        ("negative_tets", json!(mesh.negative_tets())),
+        ("nonmanifold_faces", json!(adj.nonmanifold_faces)),
+        ("scalar_field", json!(format!("{field}[{step}]"))),
+        ("fields", json!(fields.join(", "))),
+        ("load_ms", json!((load_ms * 1000.0).round() / 1000.0)),
+    ];
+    if as_json {
+        print_pairs(pairs, true);
+    } else {
+        print_pairs(pairs, false);
+    }
+    Ok(())
+}
+
+/// Parses `WxH`.
+pub fn parse_size(s: &str) -> Result<(u32, u32)> {
+    let bad = || {
+        Error::Input(format!(
+            "--size '{s}': expected WxH, e.g. 512x512 (1..=16384)"
+        ))
+    };
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let w: u32 = w.trim().parse().map_err(|_| bad())?;
+    let h: u32 = h.trim().parse().map_err(|_| bad())?;
+    if w == 0 || h == 0 || w > 16384 || h > 16384 {
+        return Err(bad());
+    }
+    Ok((w, h))
+}
+
+fn render_cmd(args: &RenderArgs) -> Result<()> {
+    // Check every name and flag before the (possibly long) load and render.
+    let ext = args
+        .out
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase());
+    if !matches!(ext.as_deref(), Some("exr" | "png")) {
+        return Err(Error::Input(format!(
+            "{}: output must end in .exr or .png",
+            args.out.display()
+        )));
+    }
+    let opts = RenderOptions {
+        sort: args.sort.clone(),
+        integrator: args.integrator.clone(),
+    };
+    let mut renderer = render::make(&args.renderer, &opts)?;
+    let tf = TransferFunction::load(&args.tf)?;
+    let view = View::parse(&args.view)?;
+    let projection = Projection::parse(&args.projection)?;
+    let (w, h) = parse_size(&args.size)?;
+    let mesh = load_mesh(&args.mesh)?;
+
+    // Warm the thread pool so its allocations are not counted as the renderer's.
+    rayon::broadcast(|_| ());
+    let t0 = Instant::now();
+    let (res, bytes, _peak) = alloc::measure(|| renderer.prepare(&mesh, &tf));
+    res?;
+    let setup_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let camera = Camera::new(&mesh.bbox(), view, projection, w, h);
+    let frame = renderer.render(&mesh, &camera)?;
+    frame.image.write(&args.out)?;
+
+    let t = frame.times;
+    let tets = mesh.num_tets() as f64;
+    let mut pairs = vec![
+        ("renderer", json!(renderer.name())),
+        ("sort", json!(renderer.sort_name())),
+        ("integrator", json!(renderer.integrator_name())),
+        ("device", json!(renderer.device())),
+        ("tets", json!(mesh.num_tets())),
+        ("width", json!(w)),
+        ("height", json!(h)),
+        ("setup_ms", num(setup_ms)),
+        ("project_ms", num(t.project_ms)),
+        ("sort_ms", num(t.sort_ms)),
+        ("draw_ms", num(t.draw_ms)),
+        ("readback_ms", num(t.readback_ms)),
+        ("total_ms", num(t.total_ms)),
+        ("tets_per_s", num(tets / (t.total_ms.max(1e-9) * 1e-3))),
+        (
+            "cpu_bytes_per_tet",
+            if alloc::is_counting() {
+                num(bytes as f64 / tets)
+            } else {
+                json!("not measured")
+            },
+        ),
+        ("gpu_bytes_per_tet", num(renderer.gpu_bytes() as f64 / tets)),
+        ("non_finite_pixels", json!(frame.image.non_finite_pixels())),
+    ];
+    for (k, v) in &frame.counters {
+        pairs.push((k, num(*v)));
+    }
+    pairs.push(("out", json!(args.out.display().to_string())));
+    print_pairs(pairs, args.json);
+    Ok(())
+}
+
+fn list() {
+    println!("renderers:");
+    for r in render::REGISTRY {
+        println!("  {:<12} {}", r.name, r.description);
+        if !r.sorts.is_empty() {
+            println!("  {:<12}   sorts: {}", "", r.sorts.join(", "));
+        }
+        println!("  {:<12}   integrators: {}", "", r.integrators.join(", "));
+    }
+    println!("integrators: {}", optics::INTEGRATORS.join(", "));
+    println!("transfer functions (presets): {}", tf::PRESETS.join(", "));
+    println!("datasets (NASA grids, from $TETBENCH_DATA or ../shared/datasets):");
+    for (n, f, s) in io::SHORT_NAMES {
+        println!("  {n:<12} {f} ({s})");
+    }
+    println!("datasets (datasets-gen, NAME or NAME:TETS):");
+    for g in datasets_gen::generators() {
+        println!(
+            "  {:<16} {:>9} tets  {}",
+            g.name, g.default_tets, g.description
+        );
+    }
+}

@@ -255,7 +255,10 @@ mod tests {
     }
 
     proptest::proptest! {
-        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(256))]
+        #![proptest_config(proptest::prelude::ProptestConfig {
+            failure_persistence: None,
+            ..Default::default() // 256 cases, or $PROPTEST_CASES
+        })]
         /// Mutated and truncated files return an error or a mesh, never a panic.
         #[test]
         fn fuzz_never_panics(cut in 0usize..200, flips in proptest::collection::vec((0usize..200, 0u8..128), 0..6)) {

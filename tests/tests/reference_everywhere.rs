@@ -19,11 +19,15 @@ fn check(name: &str, mesh: &Mesh, tf: &TransferFunction, size: u32) {
         let (a, stats) = rc.render_f64(mesh, &cam).unwrap();
         let (b, _) = rc.render_f64(mesh, &cam).unwrap();
         assert!(
-            a.iter().flatten().all(|c| c.is_finite() && *c >= 0.0 && *c <= 1.0 + 1e-9),
+            a.iter()
+                .flatten()
+                .all(|c| c.is_finite() && *c >= 0.0 && *c <= 1.0 + 1e-9),
             "{name} {view:?}: non-finite or out-of-range pixel"
         );
         assert!(
-            a.iter().zip(&b).all(|(p, q)| p.map(f64::to_bits) == q.map(f64::to_bits)),
+            a.iter()
+                .zip(&b)
+                .all(|(p, q)| p.map(f64::to_bits) == q.map(f64::to_bits)),
             "{name} {view:?}: not deterministic"
         );
         assert_eq!(stats.lost, 0, "{name} {view:?}: lost rays");
@@ -42,7 +46,11 @@ fn every_generated_mesh() {
     .unwrap();
     let default = TransferFunction::preset("default").unwrap();
     for g in datasets_gen::generators() {
-        let size = if g.name.starts_with("hard-") { g.default_tets.min(3000) } else { 3000 };
+        let size = if g.name.starts_with("hard-") {
+            g.default_tets.min(3000)
+        } else {
+            3000
+        };
         let mesh = datasets_gen::generate(g.name, Some(size), 7)
             .unwrap_or_else(|e| panic!("{}: {e}", g.name));
         check(g.name, &mesh, &default, 24);

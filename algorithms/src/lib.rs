@@ -10,6 +10,7 @@ pub mod mesh;
 pub mod metrics;
 pub mod optics;
 pub mod render;
+pub mod sort;
 pub mod tf;
 
 pub use error::{Error, Result};

@@ -1,0 +1,189 @@
+//! Visibility sorts for projected tetrahedra (issue 5, point 3), kept apart from rendering.
+//!
+//! A [`Sort`] is prepared once per mesh and then, per camera, writes a back-to-front order:
+//! every tet index exactly once, farthest first. The sorts, by name ([`SORTS`], [`make`]):
+//!
+//! | name | order | per frame |
+//! | --- | --- | --- |
+//! | `centroid` | centroid depth, `sort_unstable_by`, one thread | O(n log n) |
+//! | `centroid-par` | the same order, rayon's `par_sort_unstable_by` | O(n log n) / threads |
+//! | `centroid-radix` | the same order, stable LSD radix sort on the keys' bits | O(n) |
+//! | `bucket[:N]` | PTINT's N depth slabs (default 20), index order inside a slab | O(n) |
+//! | `mpvonc` | Williams' MPVONC: topological sort of the face-adjacency DAG | O(n) |
+//!
+//! **Centroid keys.** Centroids are computed once, in f64 in the frame centred on the bounding-box
+//! centre (CONVENTIONS §1), and stored as f32 (12 bytes per tet). Per frame the key is computed
+//! in f32 from the stored centroid: orthographic — the signed distance along the view direction,
+//! `c · forward`; perspective — the squared distance from the eye, `|c − eye|²`. A larger key is
+//! farther. The three centroid sorts order by key descending under IEEE total order (so `+0.0`,
+//! the larger, comes before `−0.0`) and break ties by ascending tet index: they give the same
+//! order on the same keys.
+
+use crate::camera::{Camera, Projection};
+use crate::error::{Error, Result};
+use crate::mesh::Mesh;
+
+mod bucket;
+mod centroid;
+mod mpvonc;
+mod radix;
+
+pub use bucket::BucketSort;
+pub use centroid::CentroidSort;
+pub use mpvonc::Mpvonc;
+pub use radix::RadixSort;
+
+/// What a sort reports about one frame.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct SortStats {
+    /// Non-trivial strongly connected components (cycles) of the visibility graph (MPVONC).
+    pub cycles: usize,
+    /// Cells in those components.
+    pub cells_in_cycles: usize,
+    /// Cells emitted by the cycle fallback before all their predecessors (MPVONC).
+    pub forced: usize,
+    /// Cells with no predecessor, where the topological sort starts (MPVONC).
+    pub sources: usize,
+    /// Precedence constraints (directed edges) used (MPVONC).
+    pub edges: usize,
+    /// Interior faces that gave no constraint: zero area, or the eye in (or, in ortho, the view
+    /// direction parallel to) their plane (MPVONC).
+    pub unconstrained_faces: usize,
+}
+
+/// A visibility sort.
+pub trait Sort: Send {
+    fn name(&self) -> String;
+    /// Per-mesh precomputation (centroids in the centred frame, adjacency, …), done once.
+    fn prepare(&mut self, mesh: &Mesh) -> Result<()>;
+    /// Back-to-front visibility order for this camera: `order` receives every tet index exactly
+    /// once, farthest first. `prepare` must have been called with this mesh.
+    fn sort(&mut self, mesh: &Mesh, camera: &Camera, order: &mut Vec<u32>) -> Result<SortStats>;
+}
+
+/// The sorts known by name. `bucket` also takes a slab count, `bucket:N`.
+pub const SORTS: &[&str] = &[
+    "centroid",
+    "centroid-par",
+    "centroid-radix",
+    "bucket",
+    "mpvonc",
+];
+
+/// Default slab count of `bucket` (PTINT: "around 20").
+pub const DEFAULT_SLABS: usize = 20;
+/// Largest slab count `bucket:N` accepts.
+pub const MAX_SLABS: usize = 4096;
+
+/// Makes a sort by name: one of [`SORTS`], or `bucket:N` with N slabs in 1..=4096.
+pub fn make(name: &str) -> Result<Box<dyn Sort>> {
+    if let Some(n) = name.strip_prefix("bucket:") {
+        let slabs: usize = n.trim().parse().map_err(|_| {
+            Error::Input(format!(
+                "sort '{name}': the slab count must be an integer in 1..={MAX_SLABS}"
+            ))
+        })?;
+        if !(1..=MAX_SLABS).contains(&slabs) {
+            return Err(Error::Input(format!(
+                "sort '{name}': the slab count must be in 1..={MAX_SLABS}"
+            )));
+        }
+        return Ok(Box::new(BucketSort::new(slabs)));
+    }
+    Ok(match name {
+        "centroid" => Box::new(CentroidSort::new(false)),
+        "centroid-par" => Box::new(CentroidSort::new(true)),
+        "centroid-radix" => Box::new(RadixSort::default()),
+        "bucket" => Box::new(BucketSort::new(DEFAULT_SLABS)),
+        "mpvonc" => Box::new(Mpvonc::default()),
+        _ => {
+            return Err(Error::Input(format!(
+                "unknown sort '{name}' (known: {}; bucket:N for N slabs)",
+                SORTS.join(", ")
+            )))
+        }
+    })
+}
+
+/// Tet centroids in the centred frame, f32 (12 bytes per tet).
+pub(crate) fn centroids(mesh: &Mesh) -> Vec<[f32; 3]> {
+    use rayon::prelude::*;
+    let c = mesh.bbox().center();
+    (0..mesh.num_tets())
+        .into_par_iter()
+        .map(|t| {
+            let [a, b, cc, d] = mesh.tet_points(t);
+            let m = 0.25 * (a + b + cc + d) - c;
+            [m.x as f32, m.y as f32, m.z as f32]
+        })
+        .collect()
+}
+
+/// How a centroid becomes a depth key (larger = farther), in f32.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum KeyFn {
+    /// `c · forward`.
+    Axis([f32; 3]),
+    /// `|c − eye|²`.
+    EyeDist2([f32; 3]),
+}
+
+impl KeyFn {
+    /// The key of the centroid sorts: axis depth in ortho, squared eye distance in persp.
+    pub(crate) fn for_camera(camera: &Camera) -> KeyFn {
+        match camera.projection {
+            Projection::Ortho => KeyFn::Axis(f32x3(camera.forward)),
+            Projection::Persp => KeyFn::EyeDist2(f32x3(camera.eye())),
+        }
+    }
+    #[inline]
+    pub(crate) fn key(&self, c: &[f32; 3]) -> f32 {
+        match *self {
+            KeyFn::Axis(f) => c[0] * f[0] + c[1] * f[1] + c[2] * f[2],
+            KeyFn::EyeDist2(e) => {
+                let (x, y, z) = (c[0] - e[0], c[1] - e[1], c[2] - e[2]);
+                x * x + y * y + z * z
+            }
+        }
+    }
+}
+
+pub(crate) fn f32x3(v: glam::DVec3) -> [f32; 3] {
+    [v.x as f32, v.y as f32, v.z as f32]
+}
+
+/// Maps an f32 key to a u32 whose ascending order is the key's *descending* IEEE total order
+/// (`f32::total_cmp`): `+0.0` before `−0.0`, larger before smaller.
+#[inline]
+pub(crate) fn desc_bits(k: f32) -> u32 {
+    let u = k.to_bits();
+    let asc = if u & 0x8000_0000 != 0 {
+        !u
+    } else {
+        u | 0x8000_0000
+    };
+    !asc
+}
+
+/// Sorts `(tet, key)` pairs farthest first, ties by index, via packed u64 keys; returns tets.
+pub(crate) fn sort_desc_by_key(items: impl Iterator<Item = (u32, f32)>, out: &mut Vec<u32>) {
+    let mut v: Vec<u64> = items
+        .map(|(t, k)| ((desc_bits(k) as u64) << 32) | t as u64)
+        .collect();
+    v.sort_unstable();
+    out.extend(v.iter().map(|&x| x as u32));
+}
+
+/// Checks that a sort was prepared for a mesh of this size.
+pub(crate) fn check_prepared(name: &str, prepared: usize, mesh: &Mesh) -> Result<()> {
+    if prepared != mesh.num_tets() {
+        return Err(Error::Internal(format!(
+            "sort '{name}' was prepared for {prepared} tets, asked to sort {}",
+            mesh.num_tets()
+        )));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests;

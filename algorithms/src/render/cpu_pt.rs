@@ -322,6 +322,7 @@ impl Renderer for CpuPt {
                 b
             })
             .collect();
+        let bin_ms = ms_since(t2);
         let drawn = sc
             .tets
             .iter()
@@ -377,6 +378,7 @@ impl Renderer for CpuPt {
                 ("tets_discarded", (mesh.num_tets() - drawn) as f64),
                 ("fragments", fragments as f64),
                 ("tet_tile_pairs", pairs as f64),
+                ("bin_ms", bin_ms),
                 ("sort_cycles", cycles as f64),
                 ("scratch_bytes", scratch_bytes as f64),
             ],
@@ -848,6 +850,51 @@ mod tests {
                         .all(|c| (0.0..=1.0 + 1e-6).contains(c)));
                 }
             }
+        }
+    }
+
+    /// Throughput at 512² on a ~511K-tet grid with the stage split:
+    /// `cargo test --release -p tetbench-algorithms --lib cpu_pt_throughput -- --ignored --nocapture`.
+    #[test]
+    #[ignore]
+    fn cpu_pt_throughput() {
+        let mesh = kuhn_grid([44, 44, 44], DVec3::splat(-1.0), DVec3::splat(1.0), |p| {
+            0.5 + 0.3 * (2.0 * p.x).sin() * (1.5 * p.y).cos() + 0.2 * p.z
+        });
+        let tf = smooth_tf();
+        let cam = Camera::new(
+            &mesh.bbox(),
+            View::new(30.0, 20.0),
+            Projection::Ortho,
+            512,
+            512,
+        );
+        for integ in ["partial", "average"] {
+            let mut r = CpuPt::new("centroid", integ).unwrap();
+            r.prepare(&mesh, &tf).unwrap();
+            // The counting allocator is not installed in unit tests: the prepared vectors.
+            let bytes = r
+                .state
+                .as_ref()
+                .map_or(0, |s| s.pos.capacity() * 12 + s.s.capacity() * 4);
+            let mut frames: Vec<Frame> = (0..6).map(|_| r.render(&mesh, &cam).unwrap()).collect();
+            frames.remove(0);
+            frames.sort_by(|a, b| a.times.total_ms.total_cmp(&b.times.total_ms));
+            let f = &frames[frames.len() / 2];
+            let t = f.times;
+            eprintln!(
+                "{integ}: {} tets, {} threads: total {:.1} ms (project {:.1}, sort {:.1}, draw {:.1}) \
+                 = {:.2} M tet/s; prepare bytes {bytes} ({:.1}/tet); {:?}",
+                mesh.num_tets(),
+                rayon::current_num_threads(),
+                t.total_ms,
+                t.project_ms,
+                t.sort_ms,
+                t.draw_ms,
+                mesh.num_tets() as f64 / t.total_ms / 1e3,
+                bytes as f64 / mesh.num_tets() as f64,
+                f.counters
+            );
         }
     }
 

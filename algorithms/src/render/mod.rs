@@ -12,6 +12,7 @@ use crate::image::Image;
 use crate::mesh::Mesh;
 use crate::tf::TransferFunction;
 
+pub mod cpu_pt;
 pub mod raycast;
 
 /// Options a renderer is made with.
@@ -78,7 +79,7 @@ pub struct RendererInfo {
 }
 
 /// Every renderer, by name: adding a variant is one new module and one line here.
-pub static REGISTRY: &[&RendererInfo] = &[&raycast::RAYCAST, &raycast::REFERENCE];
+pub static REGISTRY: &[&RendererInfo] = &[&raycast::RAYCAST, &raycast::REFERENCE, &cpu_pt::CPU_PT];
 
 /// Looks a renderer up by name.
 pub fn info(name: &str) -> Result<&'static RendererInfo> {

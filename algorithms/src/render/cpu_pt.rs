@@ -38,23 +38,15 @@ use crate::image::Image;
 use crate::mesh::Mesh;
 use crate::optics::{integrator, Integrator, INTEGRATORS};
 use crate::pt::{classify, raster_fan, snap, FanGeometry, ProjVertex, Thick, TABLE};
+use crate::sort::{Sort, SortStats};
 use crate::tf::TransferFunction;
-
-/// Sorts `cpu-pt` is meant to take (all those of `sort::make`).
-pub const SORTS: [&str; 5] = [
-    "centroid",
-    "centroid-par",
-    "centroid-radix",
-    "bucket",
-    "mpvonc",
-];
 
 /// Registry entry for `cpu-pt` (`partial` and `centroid` by default).
 pub static CPU_PT: RendererInfo = RendererInfo {
     name: "cpu-pt",
     description: "CPU projected tetrahedra: PTINT classification, fans rasterised in 64x64 tiles \
                   (rayon), composited back to front",
-    sorts: &SORTS,
+    sorts: crate::sort::SORTS,
     integrators: &INTEGRATORS,
     make: |o| {
         Ok(Box::new(CpuPt::new(
@@ -72,9 +64,9 @@ pub struct CpuPt {
     integrator_name: String,
     state: Option<Prepared>,
     scratch: Scratch,
-    /// Tests only: a topological order through face adjacency (exact on convex meshes whose
-    /// "in front of" relation has no cycle), to tell sort errors from rendering errors.
-    topological: bool,
+    sort: Box<dyn Sort>,
+    /// The last frame's sort counters.
+    sort_stats: SortStats,
 }
 
 struct Prepared {
@@ -107,7 +99,6 @@ struct Scratch {
     verts: Vec<VertProj>,
     tets: Vec<TetProj>,
     order: Vec<u32>,
-    keys: Vec<f64>,
 }
 
 impl Scratch {
@@ -115,24 +106,13 @@ impl Scratch {
         self.verts.capacity() * std::mem::size_of::<VertProj>()
             + self.tets.capacity() * std::mem::size_of::<TetProj>()
             + self.order.capacity() * 4
-            + self.keys.capacity() * 8
     }
 }
 
 impl CpuPt {
-    /// `sort`: until the sort module lands only `centroid` is implemented here.
+    /// `sort`: any name [`crate::sort::make`] knows (`bucket:N` included).
     pub fn new(sort: &str, integrator: &str) -> Result<CpuPt> {
-        if !SORTS.contains(&sort) {
-            return Err(Error::Input(format!(
-                "cpu-pt: unknown sort '{sort}' (known: {})",
-                SORTS.join(", ")
-            )));
-        }
-        if sort != "centroid" {
-            return Err(Error::Input(format!(
-                "cpu-pt: sort '{sort}' is not available yet (only 'centroid' is)"
-            )));
-        }
+        let sorter = crate::sort::make(sort)?;
         if !INTEGRATORS.contains(&integrator) {
             return Err(Error::Input(format!(
                 "cpu-pt: unknown integrator '{integrator}' (known: {})",
@@ -144,39 +124,16 @@ impl CpuPt {
             integrator_name: integrator.to_string(),
             state: None,
             scratch: Scratch::default(),
-            topological: false,
+            sort: sorter,
+            sort_stats: SortStats::default(),
         })
     }
 
     /// The visibility order, back to front (farthest first), into `order`; returns the number
-    /// of cells in visibility cycles (0 for centroid sorts).
-    ///
-    /// Temporary: centroid depth (ortho: along the view axis; persp: distance to the eye) sorted
-    /// by the std sort. To be replaced by `crate::sort::make(&self.sort_name)?.sort(..)`.
+    /// of cells in visibility cycles (0 but for MPVONC on cyclic configurations).
     fn order(&mut self, mesh: &Mesh, camera: &Camera, order: &mut Vec<u32>) -> Result<usize> {
-        if self.topological {
-            return Ok(topological_order(mesh, camera, order));
-        }
-        let c = mesh.bbox().center();
-        let pos = mesh.positions();
-        let eye = camera.eye();
-        let persp = camera.projection == Projection::Persp;
-        let keys = &mut self.scratch.keys;
-        mesh.tets()
-            .par_iter()
-            .map(|t| {
-                let m = t.iter().map(|&v| pos[v as usize] - c).sum::<DVec3>() * 0.25;
-                if persp {
-                    (m - eye).length_squared()
-                } else {
-                    -m.dot(camera.to_eye)
-                }
-            })
-            .collect_into_vec(keys);
-        order.clear();
-        order.extend(0..mesh.num_tets() as u32);
-        order.sort_unstable_by(|&a, &b| keys[b as usize].total_cmp(&keys[a as usize]));
-        Ok(0)
+        self.sort_stats = self.sort.sort(mesh, camera, order)?;
+        Ok(self.sort_stats.cells_in_cycles)
     }
 }
 
@@ -215,6 +172,7 @@ impl Renderer for CpuPt {
             inv_l: if l > 0.0 { 1.0 / l } else { 0.0 },
             tets: mesh.num_tets(),
         });
+        self.sort.prepare(mesh)?;
         Ok(())
     }
 
@@ -379,65 +337,13 @@ impl Renderer for CpuPt {
                 ("fragments", fragments as f64),
                 ("tet_tile_pairs", pairs as f64),
                 ("bin_ms", bin_ms),
-                ("sort_cycles", cycles as f64),
+                ("sort_cycles", self.sort_stats.cycles as f64),
+                ("sort_cells_in_cycles", cycles as f64),
+                ("sort_forced", self.sort_stats.forced as f64),
                 ("scratch_bytes", scratch_bytes as f64),
             ],
         })
     }
-}
-
-/// Back-to-front order from face adjacency (Kahn's algorithm): across every interior face the
-/// tet on the eye's side is drawn after the other. Returns the number of tets left in cycles
-/// (appended in index order). For tests only, until the sort module's MPVONC lands.
-fn topological_order(mesh: &Mesh, camera: &Camera, order: &mut Vec<u32>) -> usize {
-    use crate::mesh::{BOUNDARY, FACE_VERTS};
-    let c = mesh.bbox().center();
-    let eye = camera.eye();
-    let adj = &mesh.adjacency().neighbors;
-    let n = mesh.num_tets();
-    let mut indeg = vec![0u32; n];
-    let mut succ: Vec<Vec<u32>> = vec![Vec::new(); n];
-    for t in 0..n {
-        let p = mesh.tet_points(t).map(|p| p - c);
-        for f in 0..4 {
-            let nb = adj[t][f];
-            if nb == BOUNDARY {
-                continue;
-            }
-            let [a, b, d] = FACE_VERTS[f].map(|k| p[k]);
-            let mut nrm = (b - a).cross(d - a);
-            if nrm.dot(p[f] - a) > 0.0 {
-                nrm = -nrm; // point away from the tet's own opposite vertex
-            }
-            let towards_eye = match camera.projection {
-                Projection::Ortho => nrm.dot(camera.to_eye),
-                Projection::Persp => nrm.dot(eye - a),
-            };
-            if towards_eye > 0.0 {
-                // The neighbour is in front: draw t first.
-                succ[t].push(nb);
-                indeg[nb as usize] += 1;
-            }
-        }
-    }
-    order.clear();
-    let mut stack: Vec<u32> = (0..n as u32).filter(|&t| indeg[t as usize] == 0).collect();
-    while let Some(t) = stack.pop() {
-        order.push(t);
-        for &s in &succ[t as usize] {
-            indeg[s as usize] -= 1;
-            if indeg[s as usize] == 0 {
-                stack.push(s);
-            }
-        }
-    }
-    let left = n - order.len();
-    let mut seen = vec![false; n];
-    for &t in order.iter() {
-        seen[t as usize] = true;
-    }
-    order.extend((0..n as u32).filter(|&t| !seen[t as usize]));
-    left
 }
 
 struct DrawCtx<'a> {
@@ -652,8 +558,8 @@ mod tests {
         integ: &str,
         topological: bool,
     ) -> Frame {
-        let mut r = CpuPt::new("centroid", integ).unwrap();
-        r.topological = topological;
+        let sort = if topological { "mpvonc" } else { "centroid" };
+        let mut r = CpuPt::new(sort, integ).unwrap();
         r.prepare(mesh, tf).unwrap();
         let f = r.render(mesh, cam).unwrap();
         assert_eq!(f.image.non_finite_pixels(), 0);
@@ -662,8 +568,8 @@ mod tests {
 
     const VIEWS: [(f64, f64); 3] = [(30.0, 20.0), (-70.0, 35.0), (145.0, -50.0)];
 
-    /// `exact` against `reference` with the centroid order and with the exact (topological)
-    /// order; both within 1e-4 RMSE on this grid and these views.
+    /// `exact` against `reference` with the centroid order and with MPVONC's order (exact on
+    /// this convex mesh); both within 1e-4 RMSE on this grid and these views.
     fn exact_against_reference(proj: Projection) {
         let mesh = smooth_grid();
         let tf = smooth_tf();
@@ -677,7 +583,7 @@ mod tests {
                 eprintln!(
                     "{} view ({a}, {e}) {}: rmse {:.3e} max {:.3e} cycles {}",
                     proj.name(),
-                    if topo { "topological" } else { "centroid" },
+                    if topo { "mpvonc" } else { "centroid" },
                     err.rmse,
                     err.max_abs,
                     c("sort_cycles")
@@ -904,11 +810,18 @@ mod tests {
         let r = crate::render::make("cpu-pt", &opts).unwrap();
         assert_eq!(r.integrator_name(), "partial");
         assert_eq!(r.sort_name(), "centroid");
+        for sort in ["mpvonc", "bucket:16", "centroid-radix"] {
+            let o = crate::render::RenderOptions {
+                sort: Some(sort.into()),
+                integrator: None,
+            };
+            assert_eq!(crate::render::make("cpu-pt", &o).unwrap().sort_name(), sort);
+        }
         let bad = crate::render::RenderOptions {
-            sort: Some("mpvonc".into()),
+            sort: Some("bubble".into()),
             integrator: None,
         };
         let e = crate::render::make("cpu-pt", &bad).err().unwrap();
-        assert!(e.to_string().contains("not available yet"), "{e}");
+        assert!(e.to_string().contains("bubble"), "{e}");
     }
 }

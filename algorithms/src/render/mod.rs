@@ -104,7 +104,9 @@ pub fn names() -> Vec<&'static str> {
 pub fn make(name: &str, opts: &RenderOptions) -> Result<Box<dyn Renderer>> {
     let info = info(name)?;
     if let Some(s) = &opts.sort {
-        if !info.sorts.contains(&s.as_str()) {
+        // `bucket:16` is the `bucket` sort with a parameter.
+        let base = s.split(':').next().unwrap_or(s);
+        if !info.sorts.contains(&base) {
             return Err(Error::Input(format!(
                 "renderer '{name}' does not take sort '{s}' (it takes: {})",
                 if info.sorts.is_empty() {

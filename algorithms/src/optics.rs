@@ -875,11 +875,22 @@ pub struct Preint {
 }
 
 impl Preint {
-    /// Builds the default-resolution table for `tf`.
+    /// The default-resolution table for `tf`: rebuilt only when the transfer function changes
+    /// (the last one built is kept, so a run over many meshes and views builds it once).
     pub fn new(tf: &TransferFunction) -> Preint {
-        Preint {
-            table: Arc::new(PreintTable::new(tf)),
+        static LAST: std::sync::Mutex<Option<(TransferFunction, Arc<PreintTable>)>> =
+            std::sync::Mutex::new(None);
+        let mut last = LAST.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((t, table)) = last.as_ref() {
+            if t == tf {
+                return Preint {
+                    table: table.clone(),
+                };
+            }
         }
+        let table = Arc::new(PreintTable::new(tf));
+        *last = Some((tf.clone(), table.clone()));
+        Preint { table }
     }
     pub fn with_table(table: Arc<PreintTable>) -> Preint {
         Preint { table }

@@ -21,6 +21,13 @@ pub const BOUNDARY: u32 = u32::MAX;
 /// that the normal `(v1 - v0) × (v2 - v0)` points out of a positively oriented tet.
 pub const FACE_VERTS: [[usize; 3]; 4] = [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]];
 
+/// Six times the signed volume of the tet `[a, b, c, d]`, `det(b − a, c − a, d − a)`: positive
+/// for a positively oriented tet (the orientation of [`FACE_VERTS`]).
+#[inline]
+pub fn signed_volume6([a, b, c, d]: [DVec3; 4]) -> f64 {
+    (b - a).cross(c - a).dot(d - a)
+}
+
 /// A named per-vertex scalar field with one or more time steps.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Field {
@@ -308,10 +315,7 @@ impl Mesh {
             let c = self.bbox().center();
             (0..self.tets.len())
                 .into_par_iter()
-                .map(|t| {
-                    let [a, b, cc, d] = self.tet_points(t).map(|p| p - c);
-                    (b - a).cross(cc - a).dot(d - a) / 6.0
-                })
+                .map(|t| signed_volume6(self.tet_points(t).map(|p| p - c)) / 6.0)
                 .collect()
         })
     }

@@ -504,19 +504,18 @@ fn boundary_is_convex(mesh: &Mesh) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::io::split::{hex_corner, hex_split_pattern};
+    use crate::io::Split;
 
     /// A unit cube split into 5 tets (the conforming "alternating" split, one parity).
     pub(crate) fn cube5() -> Mesh {
         let p: Vec<DVec3> = (0..8)
-            .map(|i| DVec3::new((i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64))
+            .map(|q| DVec3::from(hex_corner(q).map(|x| x as f64)))
             .collect();
-        let tets = vec![
-            [0, 1, 2, 4],
-            [1, 3, 2, 7],
-            [1, 2, 4, 7],
-            [1, 5, 7, 4],
-            [2, 7, 6, 4],
-        ];
+        let tets = hex_split_pattern(Split::Five, false)
+            .iter()
+            .map(|t| t.map(|q| q as u32))
+            .collect();
         let s = (0..8).map(|i| i as f64).collect();
         Mesh::with_scalars("cube5", p, tets, "s", s).unwrap()
     }
@@ -554,15 +553,8 @@ mod tests {
                 ));
             }
             // 6-tet Kuhn split along the 0-7 diagonal: conforming under translation.
-            for t in [
-                [0, 1, 3, 7],
-                [0, 3, 2, 7],
-                [0, 2, 6, 7],
-                [0, 6, 4, 7],
-                [0, 4, 5, 7],
-                [0, 5, 1, 7],
-            ] {
-                tets.push(t.map(|v: u32| base + v));
+            for t in hex_split_pattern(Split::Six, false) {
+                tets.push(t.map(|v| base + v as u32));
             }
         }
         // Merge duplicate corner vertices so the cubes share faces.

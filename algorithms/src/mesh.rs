@@ -21,6 +21,13 @@ pub const BOUNDARY: u32 = u32::MAX;
 /// that the normal `(v1 - v0) × (v2 - v0)` points out of a positively oriented tet.
 pub const FACE_VERTS: [[usize; 3]; 4] = [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]];
 
+/// Six times the signed volume of the tet `[a, b, c, d]`, `det(b − a, c − a, d − a)`: positive
+/// for a positively oriented tet (the orientation of [`FACE_VERTS`]).
+#[inline]
+pub fn signed_volume6([a, b, c, d]: [DVec3; 4]) -> f64 {
+    (b - a).cross(c - a).dot(d - a)
+}
+
 /// A named per-vertex scalar field with one or more time steps.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Field {
@@ -308,10 +315,7 @@ impl Mesh {
             let c = self.bbox().center();
             (0..self.tets.len())
                 .into_par_iter()
-                .map(|t| {
-                    let [a, b, cc, d] = self.tet_points(t).map(|p| p - c);
-                    (b - a).cross(cc - a).dot(d - a) / 6.0
-                })
+                .map(|t| signed_volume6(self.tet_points(t).map(|p| p - c)) / 6.0)
                 .collect()
         })
     }
@@ -500,19 +504,18 @@ fn boundary_is_convex(mesh: &Mesh) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::io::split::{hex_corner, hex_split_pattern};
+    use crate::io::Split;
 
     /// A unit cube split into 5 tets (the conforming "alternating" split, one parity).
     pub(crate) fn cube5() -> Mesh {
         let p: Vec<DVec3> = (0..8)
-            .map(|i| DVec3::new((i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64))
+            .map(|q| DVec3::from(hex_corner(q).map(|x| x as f64)))
             .collect();
-        let tets = vec![
-            [0, 1, 2, 4],
-            [1, 3, 2, 7],
-            [1, 2, 4, 7],
-            [1, 5, 7, 4],
-            [2, 7, 6, 4],
-        ];
+        let tets = hex_split_pattern(Split::Five, false)
+            .iter()
+            .map(|t| t.map(|q| q as u32))
+            .collect();
         let s = (0..8).map(|i| i as f64).collect();
         Mesh::with_scalars("cube5", p, tets, "s", s).unwrap()
     }
@@ -550,15 +553,8 @@ mod tests {
                 ));
             }
             // 6-tet Kuhn split along the 0-7 diagonal: conforming under translation.
-            for t in [
-                [0, 1, 3, 7],
-                [0, 3, 2, 7],
-                [0, 2, 6, 7],
-                [0, 6, 4, 7],
-                [0, 4, 5, 7],
-                [0, 5, 1, 7],
-            ] {
-                tets.push(t.map(|v: u32| base + v));
+            for t in hex_split_pattern(Split::Six, false) {
+                tets.push(t.map(|v| base + v as u32));
             }
         }
         // Merge duplicate corner vertices so the cubes share faces.

@@ -15,12 +15,8 @@ use crate::irregular::{
     annulus, cube_shell_to_sphere_shell, cube_to_ball, graded, graded_middle, sine_warp,
     square_to_disk, torus,
 };
-use crate::recipe::{fit_cells, fit_dims, Recipe};
+use crate::recipe::{fit_cells, fit_dims, lin, Recipe};
 use crate::Generated;
-
-fn lin(t: f64) -> f64 {
-    t
-}
 
 /// `[0, 1]³ → [-1, 1]³`.
 fn to_box(p: DVec3) -> DVec3 {
@@ -37,6 +33,21 @@ pub(crate) fn finish(
 ) -> Result<Mesh> {
     let s = fields::sample(&positions, f);
     Mesh::with_scalars(name, positions, tets, field, s)
+}
+
+/// Builds `recipe` for about `tets` tets (jitter from `seed`) and samples one field on it.
+fn from_recipe(
+    name: &str,
+    recipe: &Recipe,
+    tets: usize,
+    seed: u64,
+    field: &str,
+    f: impl Fn(DVec3) -> f64 + Sync,
+) -> Result<Generated> {
+    let plan = recipe.build(tets, seed);
+    let b = plan.built;
+    let m = finish(name, b.positions, b.tets, field, f)?;
+    Ok(Generated::new(m, Some(plan.expected_boundary)))
 }
 
 /// Boundary faces of a full cube lattice: two triangles per cell face on the box.
@@ -76,6 +87,19 @@ pub fn bcc_box(tets: usize) -> (Vec<DVec3>, Vec<[u32; 4]>, Lattice) {
     bcc_lattice(n, DVec3::splat(-1.0), spacing)
 }
 
+/// A [`cc_box`] lattice with one field, carrying its lattice description.
+fn cc_case(
+    name: &str,
+    tets: usize,
+    split: Split,
+    field: &str,
+    f: impl Fn(DVec3) -> f64 + Sync,
+) -> Result<Generated> {
+    let (b, l) = cc_box(tets, split);
+    let m = finish(name, b.positions, b.tets, field, f)?;
+    Ok(Generated::new(with_lattice(m, &l), Some(box_boundary(&l))))
+}
+
 /// Primary spacing of the BCC lattice that carries the same spectrum as a cube lattice of
 /// spacing `h_cc`: `√2·h_cc` (2 samples per `(√2 h)³`, i.e. `1/√2 ≈ 70.7 %` of the CC samples,
 /// 29.3 % fewer).
@@ -88,27 +112,23 @@ pub fn bcc_spacing_for_cc(h_cc: f64) -> f64 {
 pub const BCC_DEFAULT_TETS: usize = 4 * 3 * 28 * 29 * 29;
 
 pub fn gen_cc5(tets: usize, _seed: u64) -> Result<Generated> {
-    let (b, l) = cc_box(tets, Split::Five);
-    let m = finish(
+    cc_case(
         "cc5",
-        b.positions,
-        b.tets,
+        tets,
+        Split::Five,
         "marschner-lobb",
         fields::marschner_lobb,
-    )?;
-    Ok(Generated::new(with_lattice(m, &l), Some(box_boundary(&l))))
+    )
 }
 
 pub fn gen_cc6(tets: usize, _seed: u64) -> Result<Generated> {
-    let (b, l) = cc_box(tets, Split::Six);
-    let m = finish(
+    cc_case(
         "cc6",
-        b.positions,
-        b.tets,
+        tets,
+        Split::Six,
         "marschner-lobb",
         fields::marschner_lobb,
-    )?;
-    Ok(Generated::new(with_lattice(m, &l), Some(box_boundary(&l))))
+    )
 }
 
 pub fn gen_bcc(tets: usize, _seed: u64) -> Result<Generated> {
@@ -124,22 +144,14 @@ pub fn gen_bcc(tets: usize, _seed: u64) -> Result<Generated> {
 pub fn gen_torus(tets: usize, seed: u64) -> Result<Generated> {
     let warp = |p: DVec3| torus(p.x, 2.0 * p.y - 1.0, 2.0 * p.z - 1.0, 0.7, 0.3);
     let r = Recipe {
-        split: Split::Six,
         periodic_x: true,
         aspect: [4.0, 1.0, 1.0],
-        grading: [&lin, &lin, &lin],
-        warp: &warp,
-        hole: None,
-        jitter: 0.0,
+        ..Recipe::new(Split::Six, &warp)
     };
-    let plan = r.build(tets, seed);
-    let expected = plan.expected_boundary;
-    let b = plan.built;
     let g = fields::random_gaussians(6, seed);
-    let m = finish("torus", b.positions, b.tets, "gaussians", move |p| {
+    from_recipe("torus", &r, tets, seed, "gaussians", move |p| {
         fields::gaussians(p, &g)
-    })?;
-    Ok(Generated::new(m, Some(expected)))
+    })
 }
 
 /// Spherical shell (radii 0.4 to 1): a cavity inside; spherical-shell field.
@@ -157,21 +169,12 @@ pub fn gen_shell(tets: usize, seed: u64) -> Result<Generated> {
     };
     let hole = |q: DVec3| q.length() < 0.4;
     let r = Recipe {
-        split: Split::Five,
-        periodic_x: false,
-        aspect: [1.0, 1.0, 1.0],
-        grading: [&lin, &lin, &lin],
-        warp: &warp,
         hole: Some(&hole),
-        jitter: 0.0,
+        ..Recipe::new(Split::Five, &warp)
     };
-    let plan = r.build(tets, seed);
-    let expected = plan.expected_boundary;
-    let b = plan.built;
-    let m = finish("shell", b.positions, b.tets, "shell", |p| {
+    from_recipe("shell", &r, tets, seed, "shell", |p| {
         fields::spherical_shell(p, DVec3::ZERO, 0.7, 0.1)
-    })?;
-    Ok(Generated::new(m, Some(expected)))
+    })
 }
 
 /// Steps of `tv-gaussian`.
@@ -221,22 +224,14 @@ fn spx_like(name: &str, tets: usize, seed: u64) -> Result<Generated> {
     let warp = |p: DVec3| cube_to_ball(to_box(p));
     let hole = |q: DVec3| q.length() < 0.3;
     let r = Recipe {
-        split: Split::Five,
-        periodic_x: false,
-        aspect: [1.0, 1.0, 1.0],
-        grading: [&lin, &lin, &lin],
-        warp: &warp,
         hole: Some(&hole),
         jitter: 0.2,
+        ..Recipe::new(Split::Five, &warp)
     };
-    let plan = r.build(tets, seed);
-    let expected = plan.expected_boundary;
-    let b = plan.built;
     let g = fields::random_gaussians(8, seed);
-    let m = finish(name, b.positions, b.tets, "gaussians", move |p| {
+    from_recipe(name, &r, tets, seed, "gaussians", move |p| {
         fields::gaussians(p, &g) + 0.5 * fields::spherical_shell(p, DVec3::ZERO, 0.3, 0.1)
-    })?;
-    Ok(Generated::new(m, Some(expected)))
+    })
 }
 
 pub fn gen_spx(tets: usize, seed: u64) -> Result<Generated> {
@@ -264,23 +259,15 @@ pub fn gen_delta(tets: usize, seed: u64) -> Result<Generated> {
         q.z.abs() < 0.025 && q.x > -0.6 && q.x < 0.5 && q.y.abs() < 0.6 * (q.x + 0.6) / 1.1
     };
     let r = Recipe {
-        split: Split::Five,
-        periodic_x: false,
-        aspect: [1.0, 1.0, 1.0],
         grading: [&lin, &lin, &gz],
-        warp: &warp,
         hole: Some(&wing),
-        jitter: 0.0,
+        ..Recipe::new(Split::Five, &warp)
     };
-    let plan = r.build(tets, seed);
-    let expected = plan.expected_boundary;
-    let b = plan.built;
-    let m = finish("delta", b.positions, b.tets, "vorticity", |p| {
+    from_recipe("delta", &r, tets, seed, "vorticity", |p| {
         let apex = DVec3::new(-0.6, 0.0, 0.05);
         tube(p, apex, DVec3::new(1.0, 0.5, 0.2), 0.06)
             + tube(p, apex, DVec3::new(1.0, -0.5, 0.2), 0.06)
-    })?;
-    Ok(Generated::new(m, Some(expected)))
+    })
 }
 
 /// Torso: elliptic cylinder (square-to-disk cross-sections), jittered; "organ" Gaussians.
@@ -291,27 +278,19 @@ pub fn gen_torso(tets: usize, seed: u64) -> Result<Generated> {
         DVec3::new(0.9 * d.x, 0.6 * d.y, q.z)
     };
     let r = Recipe {
-        split: Split::Five,
-        periodic_x: false,
         aspect: [1.5, 1.0, 1.7],
-        grading: [&lin, &lin, &lin],
-        warp: &warp,
-        hole: None,
         jitter: 0.2,
+        ..Recipe::new(Split::Five, &warp)
     };
-    let plan = r.build(tets, seed);
-    let expected = plan.expected_boundary;
-    let b = plan.built;
     let mut g = fields::random_gaussians(5, seed);
     g.push(Gaussian {
         center: DVec3::new(0.15, 0.1, 0.2),
         sigma: 0.15,
         amplitude: 1.5,
     });
-    let m = finish("torso", b.positions, b.tets, "potential", move |p| {
+    from_recipe("torso", &r, tets, seed, "potential", move |p| {
         fields::gaussians(p, &g)
-    })?;
-    Ok(Generated::new(m, Some(expected)))
+    })
 }
 
 /// Fighter in a wind tunnel: box graded towards the aircraft (10× per side), aircraft
@@ -331,18 +310,13 @@ pub fn gen_fighter(tets: usize, seed: u64) -> Result<Generated> {
         fuselage || wing || fin
     };
     let r = Recipe {
-        split: Split::Five,
-        periodic_x: false,
         aspect: [1.2, 1.0, 0.8],
         grading: [&gm, &gm, &gm],
-        warp: &warp,
         hole: Some(&aircraft),
         jitter: 0.15,
+        ..Recipe::new(Split::Five, &warp)
     };
-    let plan = r.build(tets, seed);
-    let expected = plan.expected_boundary;
-    let b = plan.built;
-    let m = finish("fighter", b.positions, b.tets, "pressure", |p| {
+    from_recipe("fighter", &r, tets, seed, "pressure", |p| {
         let nose = DVec3::new(-0.7, 0.0, 0.0);
         (-(p - nose).length_squared() / 0.02).exp()
             + 0.6
@@ -353,15 +327,12 @@ pub fn gen_fighter(tets: usize, seed: u64) -> Result<Generated> {
                     0.1,
                 )
             + 0.2 * fields::marschner_lobb(p)
-    })?;
-    Ok(Generated::new(m, Some(expected)))
+    })
 }
 
 /// Fuel injection: a `cc6` lattice (like the 64³ volume split into tets) with the jets field.
 pub fn gen_fuel(tets: usize, _seed: u64) -> Result<Generated> {
-    let (b, l) = cc_box(tets, Split::Six);
-    let m = finish("fuel", b.positions, b.tets, "fuel", fields::fuel)?;
-    Ok(Generated::new(with_lattice(m, &l), Some(box_boundary(&l))))
+    cc_case("fuel", tets, Split::Six, "fuel", fields::fuel)
 }
 
 /// Brain: ellipsoid (cube mapped to a ball) with two ventricle cavities, jittered.
@@ -376,22 +347,14 @@ pub fn gen_brain(tets: usize, seed: u64) -> Result<Generated> {
         })
     };
     let r = Recipe {
-        split: Split::Five,
-        periodic_x: false,
-        aspect: [1.0, 1.0, 1.0],
-        grading: [&lin, &lin, &lin],
-        warp: &warp,
         hole: Some(&ventricles),
         jitter: 0.2,
+        ..Recipe::new(Split::Five, &warp)
     };
-    let plan = r.build(tets, seed);
-    let expected = plan.expected_boundary;
-    let b = plan.built;
     let g = fields::random_gaussians(12, seed);
-    let m = finish("brain", b.positions, b.tets, "intensity", move |p| {
+    from_recipe("brain", &r, tets, seed, "intensity", move |p| {
         fields::gaussians(p, &g) + 0.5 * fields::spherical_shell(p, DVec3::ZERO, 0.6, 0.08)
-    })?;
-    Ok(Generated::new(m, Some(expected)))
+    })
 }
 
 /// Blunt fin: a half O-grid around a half-cylinder fin standing on a plate, radially graded
@@ -406,23 +369,15 @@ pub fn gen_blunt_like(tets: usize, seed: u64) -> Result<Generated> {
         DVec3::new(-a.y, a.x, a.z)
     };
     let r = Recipe {
-        split: Split::Five,
-        periodic_x: false,
         aspect: [1.25, 1.0, 1.0],
         grading: [&lin, &gr, &gz],
-        warp: &warp,
-        hole: None,
-        jitter: 0.0,
+        ..Recipe::new(Split::Five, &warp)
     };
-    let plan = r.build(tets, seed);
-    let expected = plan.expected_boundary;
-    let b = plan.built;
-    let m = finish("blunt-like", b.positions, b.tets, "density", |p| {
+    from_recipe("blunt-like", &r, tets, seed, "density", |p| {
         let r = (p.x * p.x + p.y * p.y).sqrt();
         let shock = 0.45 + 0.25 * p.z;
         1.0 + 0.8 * 0.5 * (1.0 + ((shock - r) / 0.04).tanh()) + 0.3 * (-(r - 0.15) / 0.05).exp()
-    })?;
-    Ok(Generated::new(m, Some(expected)))
+    })
 }
 
 /// Combustion chamber: a tube along x whose radius bulges (not concave: non-convex),
@@ -434,22 +389,13 @@ pub fn gen_comb_like(tets: usize, seed: u64) -> Result<Generated> {
         DVec3::new(2.0 * p.x - 1.0, radius * d.x, radius * d.y)
     };
     let r = Recipe {
-        split: Split::Five,
-        periodic_x: false,
         aspect: [1.75, 1.0, 0.75],
-        grading: [&lin, &lin, &lin],
-        warp: &warp,
-        hole: None,
-        jitter: 0.0,
+        ..Recipe::new(Split::Five, &warp)
     };
-    let plan = r.build(tets, seed);
-    let expected = plan.expected_boundary;
-    let b = plan.built;
-    let m = finish("comb-like", b.positions, b.tets, "density", |p| {
+    from_recipe("comb-like", &r, tets, seed, "density", |p| {
         // The fuel jets, turned to run along +x.
         fields::fuel(DVec3::new(p.y, p.z, p.x))
-    })?;
-    Ok(Generated::new(m, Some(expected)))
+    })
 }
 
 /// Post: a full O-grid (periodic angle) around a cylinder, radially graded 100×; velocity
@@ -459,18 +405,12 @@ pub fn gen_post_like(tets: usize, seed: u64) -> Result<Generated> {
     let gr = |t: f64| graded(t, 100.0);
     let warp = |p: DVec3| annulus(p.x, p.y, p.z - 0.5, A, 1.0, 1.0);
     let r = Recipe {
-        split: Split::Five,
         periodic_x: true,
         aspect: [2.0, 1.0, 1.0],
         grading: [&lin, &gr, &lin],
-        warp: &warp,
-        hole: None,
-        jitter: 0.0,
+        ..Recipe::new(Split::Five, &warp)
     };
-    let plan = r.build(tets, seed);
-    let expected = plan.expected_boundary;
-    let b = plan.built;
-    let m = finish("post-like", b.positions, b.tets, "velocity", |p| {
+    from_recipe("post-like", &r, tets, seed, "velocity", |p| {
         let r2 = (p.x * p.x + p.y * p.y).max(A * A);
         let th = p.y.atan2(p.x);
         let a2 = A * A / r2;
@@ -483,6 +423,5 @@ pub fn gen_post_like(tets: usize, seed: u64) -> Result<Generated> {
             0.0
         };
         speed * (1.0 - wake) * (1.0 + 0.1 * p.z)
-    })?;
-    Ok(Generated::new(m, Some(expected)))
+    })
 }

@@ -2,76 +2,40 @@
 //! with cells masked out (holes) or wrapped around one axis (periodic, for rings and tubes), and
 //! the body-centred cubic lattice (`bcc`).
 
+use algorithms::io::split::{hex_corner, hex_split_pattern};
+use algorithms::mesh::signed_volume6;
 use glam::DVec3;
 use rayon::prelude::*;
 
-/// How each hexahedral cell is split.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Split {
-    /// 5 tets per cell (4 corner tets and a central one), mirrored on alternate cells
-    /// (parity of `i + j + k`) so that the face diagonals of neighbouring cells agree.
-    Five,
-    /// 6 tets per cell around the main diagonal from corner 0 to corner 7 (Kuhn split);
-    /// conforming by translation.
-    Six,
-}
+/// How each hexahedral cell is split (re-exported from the readers, which split hexahedra the
+/// same way; [`Block::build`] fixes the order of the tets within a cell).
+pub use algorithms::io::Split;
 
-impl Split {
-    pub fn per_cell(self) -> usize {
-        match self {
-            Split::Five => 5,
-            Split::Six => 6,
-        }
-    }
-}
-
-/// Cell corners are numbered `c = x + 2y + 4z` for the corner at offset `(x, y, z)`.
-const FIVE: [[u32; 4]; 5] = [
-    [0, 1, 2, 4],
-    [1, 3, 2, 7],
-    [1, 2, 4, 7],
-    [1, 5, 7, 4],
-    [2, 7, 6, 4],
-];
-const SIX: [[u32; 4]; 6] = [
-    [0, 1, 3, 7],
-    [0, 3, 2, 7],
-    [0, 2, 6, 7],
-    [0, 6, 4, 7],
-    [0, 4, 5, 7],
-    [0, 5, 1, 7],
-];
-
-fn corner(c: u32) -> DVec3 {
-    DVec3::new((c & 1) as f64, ((c >> 1) & 1) as f64, ((c >> 2) & 1) as f64)
-}
-
-/// Signed volume ×6 of four points.
-#[inline]
-pub fn orient(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> f64 {
-    (b - a).cross(c - a).dot(d - a)
-}
-
-/// The split patterns, each tet ordered to be positively oriented in the unit cube:
-/// `[even parity, odd parity]`.
-fn patterns(split: Split) -> [Vec<[u32; 4]>; 2] {
-    let fix = |mut t: [u32; 4]| {
-        if orient(corner(t[0]), corner(t[1]), corner(t[2]), corner(t[3])) < 0.0 {
+/// The split patterns as local corner indices `q = x + 2y + 4z`, `[even parity, odd parity]`:
+/// the even pattern of [`hex_split_pattern`], and for [`Split::Five`] on odd cells the same tets
+/// mirrored in x (corner `q` ↦ `q ^ 1`) in the same order; each tet then reordered (last two
+/// swapped if needed) to be positively oriented in the unit cube.
+fn patterns(split: Split) -> [Vec<[usize; 4]>; 2] {
+    let fix = |mut t: [usize; 4]| {
+        if signed_volume6(t.map(corner)) < 0.0 {
             t.swap(2, 3);
         }
         t
     };
-    match split {
-        Split::Five => [
-            FIVE.iter().map(|&t| fix(t)).collect(),
-            // Mirror in x: corner c ↦ c ^ 1.
-            FIVE.iter().map(|t| fix(t.map(|c| c ^ 1))).collect(),
-        ],
-        Split::Six => [
-            SIX.iter().map(|&t| fix(t)).collect(),
-            SIX.iter().map(|&t| fix(t)).collect(),
-        ],
-    }
+    let even = hex_split_pattern(split, false);
+    let mirror = |q: usize| match split {
+        Split::Five => q ^ 1,
+        Split::Six => q,
+    };
+    [
+        even.iter().map(|&t| fix(t)).collect(),
+        even.iter().map(|t| fix(t.map(mirror))).collect(),
+    ]
+}
+
+/// Corner `q` of the unit cube.
+fn corner(q: usize) -> DVec3 {
+    DVec3::from(hex_corner(q).map(|x| x as f64))
 }
 
 /// A structured block: `cells` hexahedra per axis, split as `split`. With `periodic_x` the last
@@ -163,12 +127,9 @@ impl Block {
             .flat_map_iter(|c| {
                 let [i, j, k] = self.cell_ijk(c);
                 let pat = &pats[(i + j + k) & 1];
-                let corner_id = move |q: u32| {
-                    gid(
-                        i + (q & 1) as usize,
-                        j + ((q >> 1) & 1) as usize,
-                        k + (q >> 2) as usize,
-                    )
+                let corner_id = move |q: usize| {
+                    let [x, y, z] = hex_corner(q);
+                    gid(i + x, j + y, k + z)
                 };
                 pat.iter().map(move |t| t.map(corner_id))
             })
@@ -239,10 +200,9 @@ impl Block {
 /// after an orientation-reversing map. Tets of the other sign are left as they are, so a map
 /// that folds the mesh still shows up as negative volumes.
 pub fn orient_majority(positions: &[DVec3], tets: &mut [[u32; 4]]) {
-    let p = |v: u32| positions[v as usize];
     let negative = tets
         .par_iter()
-        .filter(|t| orient(p(t[0]), p(t[1]), p(t[2]), p(t[3])) < 0.0)
+        .filter(|t| signed_volume6(t.map(|v| positions[v as usize])) < 0.0)
         .count();
     if 2 * negative > tets.len() {
         tets.par_iter_mut().for_each(|t| t.swap(2, 3));
@@ -500,7 +460,7 @@ mod tests {
             for pat in patterns(split) {
                 let mut total = 0.0;
                 for t in &pat {
-                    let v = orient(corner(t[0]), corner(t[1]), corner(t[2]), corner(t[3]));
+                    let v = signed_volume6(t.map(corner));
                     assert!(v > 0.0);
                     total += v / 6.0;
                 }

@@ -272,10 +272,7 @@ pub fn gen_cycle(tets: usize, _seed: u64) -> Result<Generated> {
         }
     }
     for t in tet_list.iter_mut() {
-        let p = |v: u32| positions[v as usize];
-        if crate::grid::orient(p(t[0]), p(t[1]), p(t[2]), p(t[3])) < 0.0 {
-            t.swap(2, 3);
-        }
+        *t = algorithms::io::split::orient(&positions, *t);
     }
     let faces = 4 * tet_list.len();
     ok(

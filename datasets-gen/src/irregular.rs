@@ -6,7 +6,7 @@ use std::f64::consts::PI;
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
-use crate::grid::orient;
+use algorithms::mesh::signed_volume6;
 
 /// Geometric grading of `[0, 1]` onto itself: with `n` cells, cell sizes grow geometrically
 /// from the start to the end of the interval, the last `ratio` times the first.
@@ -139,7 +139,7 @@ pub fn jitter(
             r * (amount * shortest[v])
         })
         .collect();
-    let vol = |p: &dyn Fn(u32) -> DVec3, t: &[u32; 4]| orient(p(t[0]), p(t[1]), p(t[2]), p(t[3]));
+    let vol = |p: &dyn Fn(u32) -> DVec3, t: &[u32; 4]| signed_volume6(t.map(p));
     let before: Vec<f64> = tets
         .par_iter()
         .map(|t| vol(&|v| positions[v as usize], t))

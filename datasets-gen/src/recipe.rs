@@ -114,6 +114,11 @@ pub fn fit_masked<'a>(
 /// Parameter-space grading of one axis, `[0, 1] → [0, 1]`, increasing.
 pub type Grading<'a> = &'a (dyn Fn(f64) -> f64 + Sync);
 
+/// The uniform grading: equal cell sizes along the axis.
+pub fn lin(t: f64) -> f64 {
+    t
+}
+
 /// How an irregular mesh is made from a structured block.
 pub struct Recipe<'a> {
     pub split: Split,
@@ -139,7 +144,21 @@ pub struct Planned {
     pub expected_boundary: usize,
 }
 
-impl Recipe<'_> {
+impl<'a> Recipe<'a> {
+    /// A recipe for `warp` of a uniform, non-periodic block of cubic aspect, without holes
+    /// or jitter (set the other fields with `..Recipe::new(split, warp)`).
+    pub fn new(split: Split, warp: &'a (dyn Fn(DVec3) -> DVec3 + Sync)) -> Recipe<'a> {
+        Recipe {
+            split,
+            periodic_x: false,
+            aspect: [1.0, 1.0, 1.0],
+            grading: [&lin, &lin, &lin],
+            warp,
+            hole: None,
+            jitter: 0.0,
+        }
+    }
+
     fn param(&self, block: &Block, ijk: [f64; 3]) -> DVec3 {
         DVec3::new(
             (self.grading[0])(ijk[0] / block.cells[0] as f64),

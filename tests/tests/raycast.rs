@@ -2,6 +2,8 @@
 
 use algorithms::camera::{Camera, Projection, View};
 use algorithms::glam::DVec3;
+use algorithms::io::split::{hex_corner, hex_split_pattern};
+use algorithms::io::Split;
 use algorithms::render::raycast::RayCaster;
 use algorithms::render::Renderer;
 use algorithms::tf::{TfPoint, TransferFunction};
@@ -27,18 +29,12 @@ fn kuhn_grid(n: [usize; 3], lo: DVec3, hi: DVec3, f: impl Fn(DVec3) -> f64) -> M
     for k in 0..n[2] {
         for j in 0..n[1] {
             for i in 0..n[0] {
-                let c: Vec<u32> = (0..8)
-                    .map(|b| idx(i + (b & 1), j + ((b >> 1) & 1), k + ((b >> 2) & 1)))
-                    .collect();
-                for t in [
-                    [0, 1, 3, 7],
-                    [0, 3, 2, 7],
-                    [0, 2, 6, 7],
-                    [0, 6, 4, 7],
-                    [0, 4, 5, 7],
-                    [0, 5, 1, 7],
-                ] {
-                    tets.push(t.map(|v: usize| c[v]));
+                let c: [u32; 8] = std::array::from_fn(|q| {
+                    let [x, y, z] = hex_corner(q);
+                    idx(i + x, j + y, k + z)
+                });
+                for t in hex_split_pattern(Split::Six, false) {
+                    tets.push(t.map(|v| c[v]));
                 }
             }
         }

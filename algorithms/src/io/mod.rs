@@ -7,13 +7,26 @@ use std::path::{Path, PathBuf};
 use crate::error::{Error, Result};
 use crate::mesh::Mesh;
 
-/// How hexahedra (structured grids, PLOT3D) are split into tetrahedra.
+/// How hexahedra (structured grids, PLOT3D) are split into tetrahedra (the patterns are
+/// [`split::hex_split_pattern`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Split {
-    /// 5 tets per hex, mirrored on alternating cells so that faces conform.
+    /// 5 tets per hex (4 corner tets and a central one), mirrored on alternate cells (parity of
+    /// `i + j + k`) so that the face diagonals of neighbouring cells agree.
     Five,
-    /// 6 tets per hex around the main diagonal (Kuhn), conforming by translation.
+    /// 6 tets per hex around the main diagonal from corner 0 to corner 7 (Kuhn), conforming by
+    /// translation.
     Six,
+}
+
+impl Split {
+    /// Tets per hex of a structured grid: 5 or 6.
+    pub fn per_cell(self) -> usize {
+        match self {
+            Split::Five => 5,
+            Split::Six => 6,
+        }
+    }
 }
 
 /// Options for [`load`].

@@ -441,49 +441,42 @@ mod tests {
             scalar: Some("pressure".into()),
             ..Default::default()
         };
-        let e = parse_plot3d(&x, &q, "g.xyz", "g.q", &bad)
-            .unwrap_err()
-            .to_string();
+        let err = |x: &[u8], q: &[u8], opts: &LoadOptions| {
+            parse_plot3d(x, q, "g.xyz", "g.q", opts)
+                .unwrap_err()
+                .to_string()
+        };
+        let e = err(&x, &q, &bad);
         assert_eq!(
             e,
             "g.xyz: unknown PLOT3D scalar 'pressure' (choices: density, energy, velocity, momentum-x, momentum-y, momentum-z)"
         );
         let d = LoadOptions::default();
         // Truncated xyz, truncated q, q of another grid, lying dimensions, NaN.
-        let e = parse_plot3d(&x[..x.len() - 1], &q, "g.xyz", "g.q", &d)
-            .unwrap_err()
-            .to_string();
+        let e = err(&x[..x.len() - 1], &q, &d);
         assert!(
             e.starts_with("g.xyz: not a PLOT3D whole single-grid xyz file"),
             "{e}"
         );
-        let e = parse_plot3d(&x, &q[..q.len() - 1], "g.xyz", "g.q", &d)
-            .unwrap_err()
-            .to_string();
+        let e = err(&x, &q[..q.len() - 1], &d);
         assert!(
             e.starts_with("g.q: not a PLOT3D q file for a 3×2×2 grid"),
             "{e}"
         );
         let mut q2 = q.clone();
         q2[3] = 4;
-        let e = parse_plot3d(&x, &q2, "g.xyz", "g.q", &d)
-            .unwrap_err()
-            .to_string();
+        let e = err(&x, &q2, &d);
         assert!(
             e.contains("g.q: q dimensions 4×2×2 differ from the grid's 3×2×2"),
             "{e}"
         );
         let mut x2 = x.clone();
         x2[..4].copy_from_slice(&0x7fff_ffffi32.to_be_bytes());
-        let e = parse_plot3d(&x2, &q, "g.xyz", "g.q", &d)
-            .unwrap_err()
-            .to_string();
+        let e = err(&x2, &q, &d);
         assert!(e.contains("2147483647 2 2"), "{e}");
         let mut x3 = x.clone();
         x3[12..16].copy_from_slice(&f32::NAN.to_be_bytes());
-        let e = parse_plot3d(&x3, &q, "g.xyz", "g.q", &d)
-            .unwrap_err()
-            .to_string();
+        let e = err(&x3, &q, &d);
         assert!(e.contains("non-finite"), "{e}");
         assert!(parse_plot3d(&[], &[], "g.xyz", "g.q", &d).is_err());
     }

@@ -20,7 +20,7 @@ use glam::DVec3;
 
 use crate::error::{Error, Result};
 use crate::io::Split;
-use crate::mesh::Field;
+use crate::mesh::{signed_volume6, Field};
 
 pub const VTK_TETRA: u8 = 10;
 pub const VTK_VOXEL: u8 = 11;
@@ -64,24 +64,36 @@ fn corners_for(t: u8) -> Option<usize> {
     }
 }
 
-#[inline]
-fn signed_volume(p: &[DVec3], t: [u32; 4]) -> f64 {
-    let a = p[t[0] as usize];
-    (p[t[1] as usize] - a)
-        .cross(p[t[2] as usize] - a)
-        .dot(p[t[3] as usize] - a)
-}
-
-/// `t` with two vertices swapped when its signed volume is negative.
+/// `t` (vertex indices into `p`) with two vertices swapped when its signed volume is negative.
 #[inline]
 pub fn orient(p: &[DVec3], mut t: [u32; 4]) -> [u32; 4] {
-    if signed_volume(p, t) < 0.0 {
+    if signed_volume6(t.map(|v| p[v as usize])) < 0.0 {
         t.swap(2, 3);
     }
     t
 }
 
-/// Corners of a hex cell, local index `x + 2y + 4z`.
+/// Offset `[x, y, z]` (each 0 or 1) of corner `q = x + 2y + 4z` of a hex cell: the local corner
+/// index that [`hex_split_pattern`] uses.
+#[inline]
+pub fn hex_corner(q: usize) -> [usize; 3] {
+    [q & 1, (q >> 1) & 1, (q >> 2) & 1]
+}
+
+/// The tets one hex cell of a structured grid is split into, as local corner indices (see
+/// [`hex_corner`]), for a cell whose `i + j + k` is odd (`odd_parity`) or even. [`Split::Five`]:
+/// 4 corner tets and a central one, (0,1,2,4) (1,3,2,7) (1,2,4,7) (1,5,7,4) (2,7,6,4) on even
+/// cells; on odd cells their mirror image (corner `q` ↦ `q ^ 1`), listed central tet first.
+/// [`Split::Six`]: Kuhn's 6 tets around the diagonal 0–7, the same on every cell. Not every tet
+/// is positively oriented as listed: fix them up with the positions at hand.
+pub fn hex_split_pattern(split: Split, odd_parity: bool) -> &'static [[usize; 4]] {
+    match split {
+        Split::Five if odd_parity => &FIVE_ODD,
+        Split::Five => &FIVE_EVEN,
+        Split::Six => &SIX,
+    }
+}
+
 /// 5-tet split for even `i + j + k`: central tet 1-2-4-7 and the four corner tets at 0, 3, 5, 6.
 const FIVE_EVEN: [[usize; 4]; 5] = [
     [0, 1, 2, 4],
@@ -90,7 +102,8 @@ const FIVE_EVEN: [[usize; 4]; 5] = [
     [1, 5, 7, 4],
     [2, 7, 6, 4],
 ];
-/// Its mirror image for odd `i + j + k`: central tet 0-3-5-6, corner tets at 1, 2, 4, 7.
+/// Its mirror image for odd `i + j + k`: central tet 0-3-5-6, corner tets at 1, 2, 4, 7 (the same
+/// tets as `FIVE_EVEN` with every corner `q` replaced by `q ^ 1`, in another order).
 const FIVE_ODD: [[usize; 4]; 5] = [
     [0, 3, 5, 6],
     [1, 0, 3, 5],
@@ -140,24 +153,16 @@ pub fn split_structured(
         return Err(Error::input(source, "more than 2^32 - 2 grid points"));
     }
     let cells = structured_cells(dims).unwrap_or(0);
-    let per = match split {
-        Split::Five => 5,
-        Split::Six => 6,
-    };
-    let mut tets = Vec::with_capacity(cells * per);
+    let mut tets = Vec::with_capacity(cells * split.per_cell());
     let idx = |i: usize, j: usize, k: usize| (i + ni * (j + nj * k)) as u32;
     for k in 0..nk.saturating_sub(1) {
         for j in 0..nj.saturating_sub(1) {
             for i in 0..ni.saturating_sub(1) {
-                let c: [u32; 8] = std::array::from_fn(|b| {
-                    idx(i + (b & 1), j + ((b >> 1) & 1), k + ((b >> 2) & 1))
+                let c: [u32; 8] = std::array::from_fn(|q| {
+                    let [x, y, z] = hex_corner(q);
+                    idx(i + x, j + y, k + z)
                 });
-                let pattern: &[[usize; 4]] = match split {
-                    Split::Five if (i + j + k) % 2 == 0 => &FIVE_EVEN,
-                    Split::Five => &FIVE_ODD,
-                    Split::Six => &SIX,
-                };
-                for t in pattern {
+                for t in hex_split_pattern(split, (i + j + k) % 2 == 1) {
                     tets.push(orient(positions, t.map(|v| c[v])));
                 }
             }
@@ -640,6 +645,25 @@ mod tests {
             }
         }
         p
+    }
+
+    #[test]
+    fn odd_five_split_mirrors_the_even_one() {
+        let sorted = |mut t: [usize; 4]| {
+            t.sort_unstable();
+            t
+        };
+        let mut mirrored: Vec<[usize; 4]> = hex_split_pattern(Split::Five, false)
+            .iter()
+            .map(|t| sorted(t.map(|q| q ^ 1)))
+            .collect();
+        let mut odd: Vec<[usize; 4]> = hex_split_pattern(Split::Five, true)
+            .iter()
+            .map(|&t| sorted(t))
+            .collect();
+        mirrored.sort_unstable();
+        odd.sort_unstable();
+        assert_eq!(mirrored, odd);
     }
 
     #[test]

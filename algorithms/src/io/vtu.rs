@@ -398,11 +398,9 @@ impl Doc<'_> {
         Ok(v)
     }
 
-    fn floats(&self, a: &Array, expected: Option<usize>) -> Result<Vec<f64>> {
-        let ty = self.dtype(a)?;
-        if a.format == Format::Ascii {
-            return self.ascii(a, expected, |t| t.parse::<f64>().ok());
-        }
+    /// The decoded bytes of a binary (inline or appended) array: a whole number of `ty` values,
+    /// `expected` of them when given.
+    fn binary(&self, a: &Array, ty: DType, expected: Option<usize>) -> Result<Vec<u8>> {
         let p = self.payload(a)?;
         if p.len() % ty.size() != 0 {
             return Err(self.err(
@@ -411,6 +409,15 @@ impl Doc<'_> {
             ));
         }
         self.check_count(a, p.len() / ty.size(), expected)?;
+        Ok(p)
+    }
+
+    fn floats(&self, a: &Array, expected: Option<usize>) -> Result<Vec<f64>> {
+        let ty = self.dtype(a)?;
+        if a.format == Format::Ascii {
+            return self.ascii(a, expected, |t| t.parse::<f64>().ok());
+        }
+        let p = self.binary(a, ty, expected)?;
         Ok(split::decode_f64(&p, ty, self.big))
     }
 
@@ -419,14 +426,7 @@ impl Doc<'_> {
         if a.format == Format::Ascii {
             return self.ascii(a, expected, |t| t.parse::<i64>().ok());
         }
-        let p = self.payload(a)?;
-        if p.len() % ty.size() != 0 {
-            return Err(self.err(
-                a,
-                format!("{} bytes is not a whole number of {:?}", p.len(), ty),
-            ));
-        }
-        self.check_count(a, p.len() / ty.size(), expected)?;
+        let p = self.binary(a, ty, expected)?;
         split::decode_i64(&p, ty, self.big).map_err(|m| self.err(a, m))
     }
 }

@@ -7,6 +7,8 @@ use super::centroid::farthest_first;
 use super::radix::radix_sort_hi32;
 use super::*;
 use crate::camera::{fibonacci_views, Camera, Projection, View};
+use crate::io::split::{hex_corner, hex_split_pattern};
+use crate::io::Split;
 use crate::mesh::BOUNDARY;
 
 /// A grid of n[0]×n[1]×n[2] unit cubes with corner at the origin, 6 Kuhn tets per cube
@@ -44,18 +46,12 @@ fn kuhn_grid(n: [usize; 3], jitter: f64, keep: impl Fn(usize, usize, usize) -> b
                 if !keep(i, j, k) {
                     continue;
                 }
-                let c: Vec<u32> = (0..8)
-                    .map(|b| idx(i + (b & 1), j + ((b >> 1) & 1), k + ((b >> 2) & 1)))
-                    .collect();
-                for t in [
-                    [0, 1, 3, 7],
-                    [0, 3, 2, 7],
-                    [0, 2, 6, 7],
-                    [0, 6, 4, 7],
-                    [0, 4, 5, 7],
-                    [0, 5, 1, 7],
-                ] {
-                    tets.push(t.map(|v: usize| c[v]));
+                let c: [u32; 8] = std::array::from_fn(|q| {
+                    let [x, y, z] = hex_corner(q);
+                    idx(i + x, j + y, k + z)
+                });
+                for t in hex_split_pattern(Split::Six, false) {
+                    tets.push(t.map(|v| c[v]));
                 }
             }
         }

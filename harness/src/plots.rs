@@ -206,6 +206,8 @@ pub fn fit_line(pts: &[(f64, f64)]) -> Option<(f64, f64)> {
 struct Series {
     label: String,
     pts: Vec<(f64, f64)>,
+    /// Draw this power law (log-space slope, intercept) instead of joining the points.
+    fit: Option<(f64, f64)>,
 }
 
 /// Tet/s against mesh size, log–log, one series per variant with the fitted exponent `b` of
@@ -228,10 +230,12 @@ pub fn tets_per_s_vs_size(rows: &[Row], stem: &Path) -> Result<Vec<PathBuf>> {
             continue;
         }
         let logs: Vec<(f64, f64)> = pts.iter().map(|p| (p.0.ln(), p.1.ln())).collect();
-        let b = fit_line(&logs).map(|f| f.0).unwrap_or(f64::NAN);
+        let fit = fit_line(&logs);
+        let b = fit.map(|f| f.0).unwrap_or(f64::NAN);
         series.push(Series {
-            label: format!("{label}: tet/s ~ tets^{b:.2}"),
+            label: format!("{label}: tet/s ~ tets^{b:.2} (fit)"),
             pts,
+            fit,
         });
     }
     if series.is_empty() {
@@ -272,6 +276,7 @@ pub fn time_vs_viewport(rows: &[Row], stem: &Path) -> Result<Vec<PathBuf>> {
                 label
             },
             pts,
+            fit: None,
         });
     }
     if series.is_empty() {
@@ -319,13 +324,26 @@ where
         .configure_mesh()
         .x_desc(xd)
         .y_desc(yd)
-        .x_label_formatter(&|v| format!("{v:.3}"))
+        .x_label_formatter(&|v| {
+            if *v >= 100.0 {
+                format!("{v:.0}")
+            } else {
+                format!("{v:.3}")
+            }
+        })
         .y_label_formatter(&|v| format!("{v:.2e}"))
         .draw()?;
     for (i, s) in series.iter().enumerate() {
         let c = color(i);
+        let line: Vec<(f64, f64)> = match s.fit {
+            Some((b, a)) => {
+                let (lo, hi) = (s.pts[0].0, s.pts[s.pts.len() - 1].0);
+                vec![(lo, (a + b * lo.ln()).exp()), (hi, (a + b * hi.ln()).exp())]
+            }
+            None => s.pts.clone(),
+        };
         chart
-            .draw_series(LineSeries::new(s.pts.iter().cloned(), c.stroke_width(2)))?
+            .draw_series(LineSeries::new(line, c.stroke_width(2)))?
             .label(s.label.clone())
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
         chart.draw_series(s.pts.iter().map(|&p| Circle::new(p, 4, c.filled())))?;

@@ -54,6 +54,47 @@ pub enum Command {
     },
     /// List renderers, sorts, integrators, transfer-function presets and datasets.
     List,
+    /// Run an experiment file: datasets x renderers x sorts x integrators x sizes x views.
+    #[command(
+        after_help = "Example: tetbench bench harness/experiments/example.toml --out out/example
+
+Writes DIR/results.csv (one row per measurement, flushed as it finishes), DIR/pairs.csv when
+pairs are asked for, DIR/meta.txt, the plots (PNG and SVG) and, with save_images = true,
+DIR/images/. Reference images are cached in DIR/.cache by content hash. Keys: docs/experiments.md"
+    )]
+    Bench {
+        /// The experiment file (TOML).
+        config: PathBuf,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+        /// Do not draw plots.
+        #[arg(long)]
+        no_plots: bool,
+    },
+    /// Regenerate the papers' tables (PTINT Table 1, 2, Fig. 8; HAPT Tables 1-4) and their plots.
+    #[command(after_help = "Example: tetbench reproduce --quick --out results-quick
+
+Each table is written as DIR/<table>.csv and DIR/<table>.md beside the paper's figures, with
+its plots; raw measurements under DIR/raw/<table>/. Tables whose renderers are not registered
+yet are skipped with a note in DIR/README.md.")]
+    Reproduce {
+        /// Smaller meshes, fewer views, smaller images (minutes on 2 cores).
+        #[arg(long)]
+        quick: bool,
+        /// Output directory.
+        #[arg(long, default_value = "results")]
+        out: PathBuf,
+        /// Only these tables (comma-separated ids, see DIR/README.md).
+        #[arg(long, value_delimiter = ',')]
+        only: Vec<String>,
+    },
+    /// Redraw the plots of a bench output directory from its results.csv (and pairs.csv).
+    #[command(after_help = "Example: tetbench plot out/example")]
+    Plot {
+        /// A directory written by `tetbench bench`.
+        dir: PathBuf,
+    },
 }
 
 /// How a mesh is found and read.

@@ -9,7 +9,38 @@ use algorithms::render::{self, RenderOptions};
 use algorithms::{alloc, metrics, optics, tf, Error, Mesh, Result, TransferFunction};
 use serde_json::{json, Map, Value};
 
+use crate::bench;
 use crate::cli::{Cli, Command, MeshArgs, RenderArgs};
+
+/// `tetbench bench`: validate everything first, then run, then plot.
+fn bench_cmd(config: &std::path::Path, out: &std::path::Path, plots: bool) -> Result<()> {
+    let exp = crate::experiment::load(config)?;
+    let opts = bench::RunOptions::new(&exp, out);
+    let o = bench::run(&exp, &opts)?;
+    let csv = out.join("results.csv");
+    if o.interrupted {
+        return Err(Error::Input(format!(
+            "interrupted: {} finished rows kept in {}",
+            o.rows.len(),
+            csv.display()
+        )));
+    }
+    println!("rows: {}", o.rows.len());
+    println!("results: {}", csv.display());
+    if !o.pairs.is_empty() {
+        println!("pairs: {}", out.join("pairs.csv").display());
+    }
+    println!(
+        "reference_images: {} rendered, {} from cache",
+        o.reference_renders, o.reference_hits
+    );
+    if plots {
+        for p in crate::plots::all(&o.rows, &o.pairs, out)? {
+            println!("plot: {}", p.display());
+        }
+    }
+    Ok(())
+}
 
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
@@ -34,6 +65,20 @@ pub fn run(cli: Cli) -> Result<()> {
         }
         Command::List => {
             list();
+            Ok(())
+        }
+        Command::Bench {
+            config,
+            out,
+            no_plots,
+        } => bench_cmd(&config, &out, !no_plots),
+        Command::Reproduce { quick, out, only } => crate::reproduce::run(quick, &out, &only),
+        Command::Plot { dir } => {
+            let rows = bench::read_rows(&dir.join("results.csv"))?;
+            let pairs = bench::read_pairs(&dir.join("pairs.csv"))?;
+            for p in crate::plots::all(&rows, &pairs, &dir)? {
+                println!("plot: {}", p.display());
+            }
             Ok(())
         }
     }

@@ -1,4 +1,9 @@
 //! The `tetbench` harness as a library: the CLI definitions and the commands behind them.
 
+pub mod bench;
 pub mod cli;
 pub mod commands;
+pub mod experiment;
+pub mod plots;
+pub mod reproduce;
+pub mod sysinfo;

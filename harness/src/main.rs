@@ -9,10 +9,24 @@ static ALLOC: algorithms::alloc::CountingAlloc = algorithms::alloc::CountingAllo
 
 fn main() -> ExitCode {
     let cli = tetbench::cli::Cli::parse();
+    // Ctrl-C: the first stops the run at the next frame (finished rows are already on disk),
+    // the second exits at once.
+    let _ = ctrlc::set_handler(|| {
+        use std::sync::atomic::Ordering;
+        if tetbench::bench::INTERRUPTED.swap(true, Ordering::SeqCst) {
+            std::process::exit(130);
+        }
+        eprintln!(
+            "tetbench: interrupted, stopping after the current frame (Ctrl-C again to quit now)"
+        );
+    });
     match tetbench::commands::run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("tetbench: {e}");
+            if tetbench::bench::INTERRUPTED.load(std::sync::atomic::Ordering::SeqCst) {
+                return ExitCode::from(130);
+            }
             ExitCode::from(if e.is_user_error() { 2 } else { 1 })
         }
     }

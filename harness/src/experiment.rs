@@ -1,0 +1,641 @@
+//! Experiment files (`tetbench bench CONFIG.toml`): the TOML schema, its validation with errors
+//! that name the key, and the expansion into datasets × variants × sizes × views.
+//!
+//! The keys are documented in `docs/experiments.md`; `harness/experiments/example.toml` is a
+//! real file that uses all of them.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use algorithms::camera::{Projection, View};
+use algorithms::glam::DVec3;
+use algorithms::render::{self, RenderOptions};
+use algorithms::{Error, Result, TransferFunction};
+use serde::de::{self, MapAccess, SeqAccess, Visitor};
+use serde::{Deserialize, Deserializer};
+
+use crate::cli::MeshArgs;
+
+/// The experiment file as written.
+#[derive(Deserialize, Debug, Clone, Default)]
+#[serde(deny_unknown_fields)]
+pub struct Config {
+    /// Free-form name, copied into `DIR/experiment.txt`.
+    #[serde(default)]
+    pub name: Option<String>,
+    /// Meshes: `"spx:20000"`, `"post"`, `"mesh.vtu"`, or tables with options.
+    pub datasets: Vec<DatasetSpec>,
+    /// Renderers, each × its sorts × its integrators.
+    pub renderers: Vec<RendererSpec>,
+    /// Image sizes `"WxH"` (default `["512x512"]`).
+    #[serde(default)]
+    pub sizes: Option<Vec<String>>,
+    /// Views (default: the single view `0,0`).
+    #[serde(default)]
+    pub views: ViewsSpec,
+    /// `"ortho"`, `"persp"` or a list of them (default `"ortho"`).
+    #[serde(default)]
+    pub projection: Option<OneOrMany>,
+    /// Transfer function: a preset name or a JSON file (relative to the experiment file).
+    #[serde(default)]
+    pub tf: Option<String>,
+    /// Measured frames per view (median reported; default 3).
+    #[serde(default)]
+    pub repeats: Option<usize>,
+    /// Frames rendered and thrown away before the measured ones, per view (default 1).
+    #[serde(default)]
+    pub warmup: Option<usize>,
+    /// Measure error against the cached `reference` images (default true).
+    #[serde(default)]
+    pub error: Option<bool>,
+    /// Save every measured image as EXR and PNG under `DIR/images/` (default false).
+    #[serde(default)]
+    pub save_images: Option<bool>,
+    /// Where reference images are cached (default `DIR/.cache`; relative to DIR).
+    #[serde(default)]
+    pub cache_dir: Option<PathBuf>,
+    /// Seed for datasets-gen meshes (default 1).
+    #[serde(default)]
+    pub seed: Option<u64>,
+    /// Pairs of variants compared image against image (e.g. centroid vs MPVONC), written to
+    /// `DIR/pairs.csv`.
+    #[serde(default)]
+    pub pairs: Vec<PairSpec>,
+}
+
+/// A dataset: a string (`name[:tets]`, short name or file) or a table.
+#[derive(Debug, Clone)]
+pub struct DatasetSpec {
+    pub mesh: String,
+    pub tets: Option<usize>,
+    pub scalar: Option<String>,
+    pub split: Option<u8>,
+    pub label: Option<String>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DatasetTable {
+    mesh: String,
+    #[serde(default)]
+    tets: Option<usize>,
+    #[serde(default)]
+    scalar: Option<String>,
+    #[serde(default)]
+    split: Option<u8>,
+    #[serde(default)]
+    label: Option<String>,
+}
+
+impl<'de> Deserialize<'de> for DatasetSpec {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = DatasetSpec;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a mesh name/file string or a table { mesh = ..., tets = ... }")
+            }
+            fn visit_str<E: de::Error>(self, s: &str) -> std::result::Result<DatasetSpec, E> {
+                Ok(DatasetSpec {
+                    mesh: s.to_string(),
+                    tets: None,
+                    scalar: None,
+                    split: None,
+                    label: None,
+                })
+            }
+            fn visit_map<A: MapAccess<'de>>(
+                self,
+                m: A,
+            ) -> std::result::Result<DatasetSpec, A::Error> {
+                let t = DatasetTable::deserialize(de::value::MapAccessDeserializer::new(m))?;
+                Ok(DatasetSpec {
+                    mesh: t.mesh,
+                    tets: t.tets,
+                    scalar: t.scalar,
+                    split: t.split,
+                    label: t.label,
+                })
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// A string or a list of strings.
+#[derive(Debug, Clone)]
+pub struct OneOrMany(pub Vec<String>);
+
+impl<'de> Deserialize<'de> for OneOrMany {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = OneOrMany;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a string or a list of strings")
+            }
+            fn visit_str<E: de::Error>(self, s: &str) -> std::result::Result<OneOrMany, E> {
+                Ok(OneOrMany(vec![s.to_string()]))
+            }
+            fn visit_seq<A: SeqAccess<'de>>(
+                self,
+                mut s: A,
+            ) -> std::result::Result<OneOrMany, A::Error> {
+                let mut v = Vec::new();
+                while let Some(x) = s.next_element::<String>()? {
+                    v.push(x);
+                }
+                Ok(OneOrMany(v))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// A renderer with the sorts and integrators to try (each absent: the renderer's default;
+/// `["*"]`: every one the registry lists for it).
+#[derive(Deserialize, Debug, Clone, Default)]
+#[serde(deny_unknown_fields)]
+pub struct RendererSpec {
+    pub name: String,
+    #[serde(default)]
+    pub sorts: Option<Vec<String>>,
+    #[serde(default)]
+    pub integrators: Option<Vec<String>>,
+}
+
+/// Views: named `AZ,EL` strings, N Fibonacci views, and a rotation path.
+#[derive(Deserialize, Debug, Clone, Default)]
+#[serde(deny_unknown_fields)]
+pub struct ViewsSpec {
+    #[serde(default)]
+    pub named: Vec<String>,
+    #[serde(default)]
+    pub fibonacci: usize,
+    #[serde(default)]
+    pub rotate: Option<RotateSpec>,
+}
+
+/// A model turning about an axis, seen by a fixed camera: `frames` views evenly spaced over
+/// 360°, starting at the view `start`.
+#[derive(Deserialize, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct RotateSpec {
+    pub frames: usize,
+    #[serde(default = "default_axis")]
+    pub axis: String,
+    #[serde(default)]
+    pub start: Option<String>,
+}
+
+fn default_axis() -> String {
+    "y".to_string()
+}
+
+/// Two variants compared image against image (labels as in the `variant` column).
+#[derive(Deserialize, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct PairSpec {
+    pub test: String,
+    pub reference: String,
+}
+
+/// One renderer variant: how to make it and its label (`renderer/sort/integrator`).
+#[derive(Debug, Clone)]
+pub struct Variant {
+    pub renderer: String,
+    pub options: RenderOptions,
+    pub label: String,
+    pub sort: String,
+    pub integrator: String,
+}
+
+/// A view with its id in the CSV (`named:0`, `fib:3`, `rot:5`).
+#[derive(Debug, Clone)]
+pub struct ViewItem {
+    pub id: String,
+    pub view: View,
+}
+
+/// A validated, expanded experiment.
+#[derive(Debug, Clone)]
+pub struct Experiment {
+    pub name: String,
+    pub datasets: Vec<DatasetSpec>,
+    pub variants: Vec<Variant>,
+    pub sizes: Vec<(u32, u32)>,
+    pub views: Vec<ViewItem>,
+    pub projections: Vec<Projection>,
+    pub tf_name: String,
+    pub tf: TransferFunction,
+    pub repeats: usize,
+    pub warmup: usize,
+    pub error: bool,
+    pub save_images: bool,
+    pub cache_dir: Option<PathBuf>,
+    pub seed: u64,
+    pub pairs: Vec<PairSpec>,
+    /// Directory relative dataset and TF paths are resolved against.
+    pub base_dir: PathBuf,
+}
+
+/// Reads and validates an experiment file. Every error is one line naming the file and key.
+pub fn load(path: &Path) -> Result<Experiment> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let cfg = parse(&text, &path.display().to_string())?;
+    let base = path
+        .parent()
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| PathBuf::from("."));
+    validate(cfg, &base).map_err(|e| match e {
+        Error::Input(m) => Error::Input(format!("{}: {m}", path.display())),
+        other => other,
+    })
+}
+
+/// Parses TOML text into a [`Config`]; `source` names it in errors.
+pub fn parse(text: &str, source: &str) -> Result<Config> {
+    let de = toml::Deserializer::parse(text).map_err(|e| toml_error(source, text, &e, None))?;
+    serde_path_to_error::deserialize(de).map_err(|e| {
+        let path = e.path().to_string();
+        toml_error(source, text, e.inner(), Some(path))
+    })
+}
+
+fn toml_error(source: &str, text: &str, e: &toml::de::Error, key: Option<String>) -> Error {
+    let line = e
+        .span()
+        .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
+    let msg = e.message().replace('\n', " ");
+    let mut out = source.to_string();
+    if let Some(l) = line {
+        out.push_str(&format!(":{l}"));
+    }
+    match key {
+        Some(k) if k != "." && !k.is_empty() => out.push_str(&format!(": key `{k}`: {msg}")),
+        _ => out.push_str(&format!(": {msg}")),
+    }
+    Error::Input(out)
+}
+
+fn key_err(key: impl fmt::Display, e: Error) -> Error {
+    match e {
+        Error::Input(m) | Error::Io(m) => Error::Input(format!("key `{key}`: {m}")),
+        other => other,
+    }
+}
+
+/// Checks every name and value of a parsed config and expands it.
+pub fn validate(cfg: Config, base: &Path) -> Result<Experiment> {
+    if cfg.datasets.is_empty() {
+        return Err(Error::Input(
+            "key `datasets`: list at least one dataset".into(),
+        ));
+    }
+    for (i, d) in cfg.datasets.iter().enumerate() {
+        check_dataset(d, base).map_err(|e| key_err(format!("datasets[{i}]"), e))?;
+    }
+    if cfg.renderers.is_empty() {
+        return Err(Error::Input(
+            "key `renderers`: list at least one renderer".into(),
+        ));
+    }
+    let mut variants = Vec::new();
+    for (i, r) in cfg.renderers.iter().enumerate() {
+        let v = expand_renderer(r).map_err(|e| match &e {
+            Error::Input(m) if m.starts_with("unknown renderer") => {
+                key_err(format!("renderers[{i}].name"), e)
+            }
+            _ => key_err(format!("renderers[{i}]"), e),
+        })?;
+        for x in v {
+            if !variants.iter().any(|y: &Variant| y.label == x.label) {
+                variants.push(x);
+            }
+        }
+    }
+    let sizes = match &cfg.sizes {
+        None => vec![(512, 512)],
+        Some(list) => {
+            if list.is_empty() {
+                return Err(Error::Input("key `sizes`: list at least one size".into()));
+            }
+            let mut out = Vec::new();
+            for (i, s) in list.iter().enumerate() {
+                out.push(
+                    crate::commands::parse_size(s)
+                        .map_err(|e| key_err(format!("sizes[{i}]"), e))?,
+                );
+            }
+            out
+        }
+    };
+    let views = expand_views(&cfg.views)?;
+    let projections = match &cfg.projection {
+        None => vec![Projection::Ortho],
+        Some(p) => {
+            if p.0.is_empty() {
+                return Err(Error::Input(
+                    "key `projection`: list at least one projection".into(),
+                ));
+            }
+            let mut v = Vec::new();
+            for s in &p.0 {
+                v.push(Projection::parse(s).map_err(|e| key_err("projection", e))?);
+            }
+            v
+        }
+    };
+    let tf_name = cfg.tf.clone().unwrap_or_else(|| "default".to_string());
+    let tf_path = base.join(&tf_name);
+    let tf = if TransferFunction::preset(&tf_name).is_none() && tf_path.exists() {
+        TransferFunction::load(&tf_path.display().to_string())
+    } else {
+        TransferFunction::load(&tf_name)
+    }
+    .map_err(|e| key_err("tf", e))?;
+    let repeats = cfg.repeats.unwrap_or(3);
+    if repeats == 0 {
+        return Err(Error::Input("key `repeats`: must be at least 1".into()));
+    }
+    for (i, p) in cfg.pairs.iter().enumerate() {
+        for (k, l) in [("test", &p.test), ("reference", &p.reference)] {
+            if !variants.iter().any(|v| &v.label == l) {
+                return Err(Error::Input(format!(
+                    "key `pairs[{i}].{k}`: '{l}' is not one of the variants ({})",
+                    variants
+                        .iter()
+                        .map(|v| v.label.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )));
+            }
+        }
+    }
+    Ok(Experiment {
+        name: cfg.name.clone().unwrap_or_else(|| "experiment".into()),
+        datasets: cfg.datasets,
+        variants,
+        sizes,
+        views,
+        projections,
+        tf_name,
+        tf,
+        repeats,
+        warmup: cfg.warmup.unwrap_or(1),
+        error: cfg.error.unwrap_or(true),
+        save_images: cfg.save_images.unwrap_or(false),
+        cache_dir: cfg.cache_dir,
+        seed: cfg.seed.unwrap_or(1),
+        pairs: cfg.pairs,
+        base_dir: base.to_path_buf(),
+    })
+}
+
+fn check_dataset(d: &DatasetSpec, base: &Path) -> Result<()> {
+    if let Some(s) = d.split {
+        if s != 5 && s != 6 {
+            return Err(Error::Input(format!(
+                "split = {s}: expected 5 or 6 tets per hexahedron"
+            )));
+        }
+    }
+    let name = d.mesh.as_str();
+    if Path::new(name).exists() || base.join(name).exists() {
+        return Ok(());
+    }
+    if algorithms::io::SHORT_NAMES
+        .iter()
+        .any(|(n, _, _)| *n == name)
+    {
+        return Ok(());
+    }
+    let (gen, tets) = match name.split_once(':') {
+        Some((g, n)) => (
+            g,
+            Some(n.parse::<usize>().map_err(|_| {
+                Error::Input(format!("'{name}': size after ':' must be a tet count"))
+            })?),
+        ),
+        None => (name, None),
+    };
+    if datasets_gen::find(gen).is_none() {
+        return Err(Error::Input(format!(
+            "'{name}': no such file, and not a dataset name (see `tetbench list`)"
+        )));
+    }
+    if tets.is_some() && d.tets.is_some() {
+        return Err(Error::Input(format!(
+            "'{name}': give the size either after ':' or as `tets`, not both"
+        )));
+    }
+    if d.tets == Some(0) || tets == Some(0) {
+        return Err(Error::Input(format!("'{name}': tets must be at least 1")));
+    }
+    Ok(())
+}
+
+impl DatasetSpec {
+    /// The dataset's name in the CSV: the label, else the name as given (with `:tets`).
+    pub fn display_name(&self) -> String {
+        if let Some(l) = &self.label {
+            return l.clone();
+        }
+        match self.tets {
+            Some(t) => format!("{}:{t}", self.mesh),
+            None => self.mesh.clone(),
+        }
+    }
+
+    /// The mesh arguments for [`crate::commands::load_mesh`].
+    pub fn mesh_args(&self, base: &Path, seed: u64) -> MeshArgs {
+        let mut mesh = self.mesh.clone();
+        if !Path::new(&mesh).exists() && base.join(&mesh).exists() {
+            mesh = base.join(&mesh).display().to_string();
+        }
+        if let Some(t) = self.tets {
+            mesh = format!("{mesh}:{t}");
+        }
+        MeshArgs {
+            mesh,
+            scalar: self.scalar.clone(),
+            q_file: None,
+            split: self.split,
+            one_based: false,
+            seed,
+        }
+    }
+}
+
+/// Expands one renderer entry into its variants, making each once to check the names.
+pub fn expand_renderer(r: &RendererSpec) -> Result<Vec<Variant>> {
+    let info = render::info(&r.name)?;
+    let sorts: Vec<Option<String>> = match &r.sorts {
+        None => vec![None],
+        Some(v) if v.iter().any(|s| s == "*") => {
+            info.sorts.iter().map(|s| Some(s.to_string())).collect()
+        }
+        Some(v) if v.is_empty() => vec![None],
+        Some(v) => v.iter().map(|s| Some(s.clone())).collect(),
+    };
+    let integrators: Vec<Option<String>> = match &r.integrators {
+        None => vec![None],
+        Some(v) if v.iter().any(|s| s == "*") => info
+            .integrators
+            .iter()
+            .map(|s| Some(s.to_string()))
+            .collect(),
+        Some(v) if v.is_empty() => vec![None],
+        Some(v) => v.iter().map(|s| Some(s.clone())).collect(),
+    };
+    let sorts = if sorts.is_empty() { vec![None] } else { sorts };
+    let mut out = Vec::new();
+    for s in &sorts {
+        for i in &integrators {
+            let options = RenderOptions {
+                sort: s.clone(),
+                integrator: i.clone(),
+            };
+            let made = render::make(&r.name, &options)?;
+            let sort = made.sort_name();
+            let integrator = made.integrator_name();
+            let label = variant_label(&made.name(), &sort, &integrator);
+            out.push(Variant {
+                renderer: made.name(),
+                options,
+                label,
+                sort,
+                integrator,
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// `renderer/sort/integrator`, leaving out empty parts.
+pub fn variant_label(renderer: &str, sort: &str, integrator: &str) -> String {
+    let mut l = renderer.to_string();
+    for p in [sort, integrator] {
+        if !p.is_empty() {
+            l.push('/');
+            l.push_str(p);
+        }
+    }
+    l
+}
+
+fn expand_views(v: &ViewsSpec) -> Result<Vec<ViewItem>> {
+    let mut out = Vec::new();
+    for (i, s) in v.named.iter().enumerate() {
+        let view = View::parse(s).map_err(|e| key_err(format!("views.named[{i}]"), e))?;
+        out.push(ViewItem {
+            id: format!("named:{i}"),
+            view,
+        });
+    }
+    for (k, view) in algorithms::camera::fibonacci_views(v.fibonacci)
+        .into_iter()
+        .enumerate()
+    {
+        out.push(ViewItem {
+            id: format!("fib:{k}"),
+            view,
+        });
+    }
+    if let Some(r) = &v.rotate {
+        if r.frames == 0 {
+            return Err(Error::Input(
+                "key `views.rotate.frames`: must be at least 1".into(),
+            ));
+        }
+        let axis = match r.axis.as_str() {
+            "x" => DVec3::X,
+            "y" => DVec3::Y,
+            "z" => DVec3::Z,
+            a => {
+                return Err(Error::Input(format!(
+                    "key `views.rotate.axis`: '{a}': expected x, y or z"
+                )))
+            }
+        };
+        let start = match &r.start {
+            Some(s) => View::parse(s).map_err(|e| key_err("views.rotate.start", e))?,
+            None if r.axis == "z" => View::new(90.0, 0.0),
+            None => View::new(0.0, 0.0),
+        };
+        let d0 = start.to_eye();
+        if d0.cross(axis).length() < 1e-6 {
+            return Err(Error::Input(
+                "key `views.rotate.start`: the start view looks along the rotation axis".into(),
+            ));
+        }
+        for k in 0..r.frames {
+            let ang = -(k as f64) * std::f64::consts::TAU / r.frames as f64;
+            let d = rotate(d0, axis, ang);
+            let el = d.y.clamp(-1.0, 1.0).asin().to_degrees();
+            let mut az = d.x.atan2(d.z).to_degrees();
+            if az < 0.0 {
+                az += 360.0;
+            }
+            out.push(ViewItem {
+                id: format!("rot:{k}"),
+                view: View::new(round6(az), round6(el)),
+            });
+        }
+    }
+    if out.is_empty() {
+        out.push(ViewItem {
+            id: "named:0".into(),
+            view: View::new(0.0, 0.0),
+        });
+    }
+    Ok(out)
+}
+
+fn round6(v: f64) -> f64 {
+    let r = (v * 1e6).round() / 1e6;
+    if r == 0.0 {
+        0.0
+    } else {
+        r
+    }
+}
+
+/// Rodrigues' rotation of `v` about unit `k` by `a` radians. The camera turns by −a when the
+/// model turns by a.
+fn rotate(v: DVec3, k: DVec3, a: f64) -> DVec3 {
+    v * a.cos() + k.cross(v) * a.sin() + k * k.dot(v) * (1.0 - a.cos())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rotation_about_y_sweeps_azimuth() {
+        let v = ViewsSpec {
+            rotate: Some(RotateSpec {
+                frames: 4,
+                axis: "y".into(),
+                start: Some("0,20".into()),
+            }),
+            ..Default::default()
+        };
+        let views = expand_views(&v).unwrap();
+        let az: Vec<f64> = views.iter().map(|v| v.view.azimuth).collect();
+        assert_eq!(az, vec![0.0, 270.0, 180.0, 90.0]);
+        assert!(views.iter().all(|v| (v.view.elevation - 20.0).abs() < 1e-9));
+    }
+
+    #[test]
+    fn unknown_key_is_named() {
+        let e = parse(
+            "datasets = [\"spx\"]\nrenderers = [{ nam = \"raycast\" }]\n",
+            "x.toml",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("renderers[0]") && e.contains("nam"), "{e}");
+        assert!(!e.contains('\n'));
+    }
+}

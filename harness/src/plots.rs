@@ -1,0 +1,587 @@
+//! Plots (plotters, PNG and SVG) from measured rows: speed against error with the Pareto front,
+//! tet/s against mesh size (log–log, fitted exponent), time against viewport size, pairwise
+//! error per dataset (centroid vs MPVONC) and stacked stage bars per variant.
+//!
+//! Each function writes `STEM.png` and `STEM.svg` and returns their paths, or nothing when the
+//! rows do not hold what the plot needs (e.g. one mesh size only).
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use algorithms::{Error, Result};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use crate::bench::{median, PairRow, Row};
+
+type PResult = std::result::Result<(), Box<dyn std::error::Error>>;
+
+const SIZE: (u32, u32) = (960, 640);
+
+fn plot_err(p: &Path, e: Box<dyn std::error::Error>) -> Error {
+    Error::Internal(format!("plot {}: {e}", p.display()))
+}
+
+macro_rules! draw_both {
+    ($stem:expr, $func:ident, $($arg:expr),*) => {{
+        let png = PathBuf::from(format!("{}.png", $stem.display()));
+        let svg = PathBuf::from(format!("{}.svg", $stem.display()));
+        {
+            let root = BitMapBackend::new(&png, SIZE).into_drawing_area();
+            $func(root, $($arg),*).map_err(|e| plot_err(&png, e))?;
+        }
+        {
+            let root = SVGBackend::new(&svg, SIZE).into_drawing_area();
+            $func(root, $($arg),*).map_err(|e| plot_err(&svg, e))?;
+        }
+        vec![png, svg]
+    }};
+}
+
+fn color(i: usize) -> RGBColor {
+    const C: [RGBColor; 10] = [
+        RGBColor(31, 119, 180),
+        RGBColor(255, 127, 14),
+        RGBColor(44, 160, 44),
+        RGBColor(214, 39, 40),
+        RGBColor(148, 103, 189),
+        RGBColor(140, 86, 75),
+        RGBColor(227, 119, 194),
+        RGBColor(127, 127, 127),
+        RGBColor(188, 189, 34),
+        RGBColor(23, 190, 207),
+    ];
+    C[i % C.len()]
+}
+
+fn ok_rows(rows: &[Row]) -> impl Iterator<Item = &Row> {
+    rows.iter().filter(|r| r.total_ms.is_finite())
+}
+
+/// Groups rows by a key, keeping first-seen order.
+fn group<'a, K: Ord + Clone>(
+    rows: impl Iterator<Item = &'a Row>,
+    key: impl Fn(&Row) -> K,
+) -> Vec<(K, Vec<&'a Row>)> {
+    let mut order: Vec<K> = Vec::new();
+    let mut m: BTreeMap<K, Vec<&Row>> = BTreeMap::new();
+    for r in rows {
+        let k = key(r);
+        if !m.contains_key(&k) {
+            order.push(k.clone());
+        }
+        m.entry(k).or_default().push(r);
+    }
+    order
+        .into_iter()
+        .map(|k| {
+            let v = m.remove(&k).unwrap();
+            (k, v)
+        })
+        .collect()
+}
+
+/// A point of the speed–error plot: variant, error (mean RMSE), speed (median M tet/s).
+#[derive(Clone, Debug)]
+pub struct SpeedError {
+    pub label: String,
+    pub rmse: f64,
+    pub mtets: f64,
+}
+
+/// Indices of the Pareto-optimal points (lower error and higher speed are better).
+pub fn pareto_front(pts: &[SpeedError]) -> Vec<usize> {
+    let mut idx: Vec<usize> = (0..pts.len()).collect();
+    idx.sort_by(|&a, &b| {
+        pts[a]
+            .rmse
+            .total_cmp(&pts[b].rmse)
+            .then(pts[b].mtets.total_cmp(&pts[a].mtets))
+    });
+    let mut best = f64::NEG_INFINITY;
+    let mut front = Vec::new();
+    for i in idx {
+        if pts[i].mtets > best {
+            best = pts[i].mtets;
+            front.push(i);
+        }
+    }
+    front
+}
+
+/// Speed against error, one point per variant, the Pareto front joined.
+pub fn speed_vs_error(rows: &[Row], stem: &Path) -> Result<Vec<PathBuf>> {
+    let pts: Vec<SpeedError> = group(ok_rows(rows).filter(|r| r.rmse.is_some()), |r| {
+        r.variant.clone()
+    })
+    .into_iter()
+    .map(|(label, rs)| SpeedError {
+        label,
+        rmse: rs.iter().map(|r| r.rmse.unwrap()).sum::<f64>() / rs.len() as f64,
+        mtets: median(rs.iter().map(|r| r.tets_per_s / 1e6).collect()),
+    })
+    .collect();
+    if pts.is_empty() {
+        return Ok(Vec::new());
+    }
+    Ok(draw_both!(stem, draw_speed_error, &pts))
+}
+
+fn draw_speed_error<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, pts: &[SpeedError]) -> PResult
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE)?;
+    let floor = 1e-6;
+    let xs: Vec<f64> = pts.iter().map(|p| p.rmse.max(floor)).collect();
+    let (x0, x1) = (
+        xs.iter().cloned().fold(f64::INFINITY, f64::min) / 2.0,
+        xs.iter().cloned().fold(0.0, f64::max) * 2.0,
+    );
+    let y1 = pts.iter().map(|p| p.mtets).fold(0.0, f64::max) * 1.15 + 1e-9;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(
+            "Speed against error (Pareto front in red)",
+            ("sans-serif", 24),
+        )
+        .margin(15)
+        .x_label_area_size(50)
+        .y_label_area_size(70)
+        .build_cartesian_2d((x0..x1).log_scale(), 0.0..y1)?;
+    chart
+        .configure_mesh()
+        .x_desc(format!(
+            "RMSE against reference (mean over views; 0 drawn at {floor:e})"
+        ))
+        .y_desc("M tet/s (median)")
+        .x_label_formatter(&|v| format!("{v:.0e}"))
+        .draw()?;
+    let front = pareto_front(pts);
+    chart
+        .draw_series(LineSeries::new(
+            front.iter().map(|&i| (xs[i], pts[i].mtets)),
+            RED.stroke_width(2),
+        ))?
+        .label("Pareto front")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED.stroke_width(2)));
+    for (i, p) in pts.iter().enumerate() {
+        let c = color(i);
+        let on_front = front.contains(&i);
+        chart
+            .draw_series(std::iter::once(Circle::new(
+                (xs[i], p.mtets),
+                if on_front { 7 } else { 5 },
+                c.filled(),
+            )))?
+            .label(p.label.clone())
+            .legend(move |(x, y)| Circle::new((x + 10, y), 5, c.filled()));
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()?;
+    root.present()?;
+    Ok(())
+}
+
+/// Least-squares slope and intercept of y on x.
+pub fn fit_line(pts: &[(f64, f64)]) -> Option<(f64, f64)> {
+    let n = pts.len() as f64;
+    if pts.len() < 2 {
+        return None;
+    }
+    let mx = pts.iter().map(|p| p.0).sum::<f64>() / n;
+    let my = pts.iter().map(|p| p.1).sum::<f64>() / n;
+    let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    if sxx <= 0.0 {
+        return None;
+    }
+    let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    let b = sxy / sxx;
+    Some((b, my - b * mx))
+}
+
+struct Series {
+    label: String,
+    pts: Vec<(f64, f64)>,
+    /// Draw this power law (log-space slope, intercept) instead of joining the points.
+    fit: Option<(f64, f64)>,
+}
+
+/// Tet/s against mesh size, log–log, one series per variant with the fitted exponent `b` of
+/// tet/s ∝ tets^b in the legend. Needs at least two mesh sizes.
+pub fn tets_per_s_vs_size(rows: &[Row], stem: &Path) -> Result<Vec<PathBuf>> {
+    let mut series = Vec::new();
+    for (label, rs) in group(ok_rows(rows), |r| r.variant.clone()) {
+        let mut pts: Vec<(f64, f64)> = group(rs.into_iter(), |r| r.dataset.clone())
+            .into_iter()
+            .map(|(_, d)| {
+                (
+                    d[0].tets as f64,
+                    median(d.iter().map(|r| r.tets_per_s).collect()),
+                )
+            })
+            .collect();
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let distinct = pts.windows(2).filter(|w| w[0].0 != w[1].0).count() + 1;
+        if distinct < 2 {
+            continue;
+        }
+        let logs: Vec<(f64, f64)> = pts.iter().map(|p| (p.0.ln(), p.1.ln())).collect();
+        let fit = fit_line(&logs);
+        let b = fit.map(|f| f.0).unwrap_or(f64::NAN);
+        series.push(Series {
+            label: format!("{label}: tet/s ~ tets^{b:.2} (fit)"),
+            pts,
+            fit,
+        });
+    }
+    if series.is_empty() {
+        return Ok(Vec::new());
+    }
+    Ok(draw_both!(
+        stem,
+        draw_loglog,
+        &series,
+        "Throughput against mesh size",
+        "tets",
+        "tet/s (median)"
+    ))
+}
+
+/// Frame time against viewport size, one series per variant (and dataset). Needs two sizes.
+pub fn time_vs_viewport(rows: &[Row], stem: &Path) -> Result<Vec<PathBuf>> {
+    let multi_ds = group(rows.iter(), |r| r.dataset.clone()).len() > 1;
+    let mut series = Vec::new();
+    for ((ds, label), rs) in group(ok_rows(rows), |r| (r.dataset.clone(), r.variant.clone())) {
+        let mut pts: Vec<(f64, f64)> = group(rs.into_iter(), |r| (r.width, r.height))
+            .into_iter()
+            .map(|((w, h), d)| {
+                (
+                    ((w as f64) * (h as f64)).sqrt(),
+                    median(d.iter().map(|r| r.total_ms).collect()),
+                )
+            })
+            .collect();
+        if pts.len() < 2 {
+            continue;
+        }
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        series.push(Series {
+            label: if multi_ds {
+                format!("{label} on {ds}")
+            } else {
+                label
+            },
+            pts,
+            fit: None,
+        });
+    }
+    if series.is_empty() {
+        return Ok(Vec::new());
+    }
+    Ok(draw_both!(
+        stem,
+        draw_loglog,
+        &series,
+        "Frame time against viewport size",
+        "viewport side (sqrt of W x H, pixels)",
+        "ms per frame (median)"
+    ))
+}
+
+fn draw_loglog<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    series: &[Series],
+    title: &str,
+    xd: &str,
+    yd: &str,
+) -> PResult
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE)?;
+    let all = series.iter().flat_map(|s| s.pts.iter());
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, 0.0f64, f64::INFINITY, 0.0f64);
+    for &(x, y) in all {
+        x0 = x0.min(x);
+        x1 = x1.max(x);
+        y0 = y0.min(y);
+        y1 = y1.max(y);
+    }
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 24))
+        .margin(15)
+        .x_label_area_size(50)
+        .y_label_area_size(80)
+        .build_cartesian_2d(
+            (x0 / 1.5..x1 * 1.5).log_scale(),
+            (y0.max(1e-12) / 2.0..y1 * 2.0).log_scale(),
+        )?;
+    chart
+        .configure_mesh()
+        .x_desc(xd)
+        .y_desc(yd)
+        .x_label_formatter(&|v| {
+            if *v >= 100.0 {
+                format!("{v:.0}")
+            } else {
+                format!("{v:.3}")
+            }
+        })
+        .y_label_formatter(&|v| format!("{v:.2e}"))
+        .draw()?;
+    for (i, s) in series.iter().enumerate() {
+        let c = color(i);
+        let line: Vec<(f64, f64)> = match s.fit {
+            Some((b, a)) => {
+                let (lo, hi) = (s.pts[0].0, s.pts[s.pts.len() - 1].0);
+                vec![(lo, (a + b * lo.ln()).exp()), (hi, (a + b * hi.ln()).exp())]
+            }
+            None => s.pts.clone(),
+        };
+        chart
+            .draw_series(LineSeries::new(line, c.stroke_width(2)))?
+            .label(s.label.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+        chart.draw_series(s.pts.iter().map(|&p| Circle::new(p, 4, c.filled())))?;
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperLeft)
+        .draw()?;
+    root.present()?;
+    Ok(())
+}
+
+/// Horizontal bars: groups (label, [(segment name, value)]) stacked or side by side.
+struct Bars {
+    title: String,
+    xdesc: String,
+    segments: Vec<String>,
+    groups: Vec<(String, Vec<f64>)>,
+    stacked: bool,
+}
+
+/// Pairwise error per dataset (HAPT Table 1): max error % (max over views), average error %
+/// and different pixels % (means over views).
+pub fn pair_errors(pairs: &[PairRow], stem: &Path) -> Result<Vec<PathBuf>> {
+    if pairs.is_empty() {
+        return Ok(Vec::new());
+    }
+    let mut groups = Vec::new();
+    let mut keys: Vec<(String, String, String)> = Vec::new();
+    for p in pairs {
+        let k = (p.dataset.clone(), p.test.clone(), p.reference.clone());
+        if !keys.contains(&k) {
+            keys.push(k);
+        }
+    }
+    let multi = keys
+        .iter()
+        .map(|k| (&k.1, &k.2))
+        .collect::<std::collections::BTreeSet<_>>()
+        .len()
+        > 1;
+    for k in &keys {
+        let ps: Vec<&PairRow> = pairs
+            .iter()
+            .filter(|p| p.dataset == k.0 && p.test == k.1 && p.reference == k.2)
+            .collect();
+        let n = ps.len() as f64;
+        let label = if multi {
+            format!("{} ({} vs {})", k.0, k.1, k.2)
+        } else {
+            k.0.clone()
+        };
+        groups.push((
+            label,
+            vec![
+                ps.iter().map(|p| p.max_err_pct).fold(0.0, f64::max),
+                ps.iter().map(|p| p.avg_err_pct).sum::<f64>() / n,
+                ps.iter().map(|p| p.diff_pixels_pct).sum::<f64>() / n,
+            ],
+        ));
+    }
+    let title = if multi {
+        "Image error between variants".to_string()
+    } else {
+        format!("{} against {}", keys[0].1, keys[0].2)
+    };
+    let bars = Bars {
+        title,
+        xdesc: "percent".into(),
+        segments: vec![
+            "max error % (max over views)".into(),
+            "avg error % (of differing channels)".into(),
+            "different pixels % (mean over views)".into(),
+        ],
+        groups,
+        stacked: false,
+    };
+    Ok(draw_both!(stem, draw_bars, &bars))
+}
+
+/// Stacked stage times per variant (project, sort, draw, readback, other), medians in ms.
+pub fn stage_bars(rows: &[Row], stem: &Path, title: &str) -> Result<Vec<PathBuf>> {
+    let mut groups = Vec::new();
+    for (label, rs) in group(ok_rows(rows), |r| r.variant.clone()) {
+        let m = |f: fn(&Row) -> f64| median(rs.iter().map(|r| f(r)).collect());
+        let (p, s, d, rb, t) = (
+            m(|r| r.project_ms),
+            m(|r| r.sort_ms),
+            m(|r| r.draw_ms),
+            m(|r| r.readback_ms),
+            m(|r| r.total_ms),
+        );
+        let other = (t - p - s - d - rb).max(0.0);
+        groups.push((label, vec![p, s, d, rb, other]));
+    }
+    if groups.is_empty() {
+        return Ok(Vec::new());
+    }
+    let bars = Bars {
+        title: title.to_string(),
+        xdesc: "ms per frame (median)".into(),
+        segments: ["project", "sort", "draw", "readback", "other"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect(),
+        groups,
+        stacked: true,
+    };
+    Ok(draw_both!(stem, draw_bars, &bars))
+}
+
+fn draw_bars<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, b: &Bars) -> PResult
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE)?;
+    let n = b.groups.len();
+    let k = b.segments.len();
+    let xmax = b
+        .groups
+        .iter()
+        .map(|(_, v)| {
+            if b.stacked {
+                v.iter().sum::<f64>()
+            } else {
+                v.iter().cloned().fold(0.0, f64::max)
+            }
+        })
+        .fold(0.0, f64::max)
+        .max(1e-9)
+        * 1.6;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(&b.title, ("sans-serif", 24))
+        .margin(15)
+        .x_label_area_size(50)
+        .y_label_area_size(20)
+        .build_cartesian_2d(0.0..xmax, 0.0..n as f64)?;
+    chart
+        .configure_mesh()
+        .x_desc(b.xdesc.as_str())
+        .y_labels(0)
+        .disable_y_mesh()
+        .draw()?;
+    for (s, name) in b.segments.iter().enumerate() {
+        let c = color(s);
+        let rects: Vec<Rectangle<(f64, f64)>> = b
+            .groups
+            .iter()
+            .enumerate()
+            .filter_map(|(g, (_, v))| {
+                let y = (n - 1 - g) as f64;
+                if b.stacked {
+                    let x0: f64 = v[..s].iter().sum();
+                    let x1 = x0 + v[s];
+                    (v[s] > 0.0).then(|| Rectangle::new([(x0, y + 0.2), (x1, y + 0.8)], c.filled()))
+                } else {
+                    let h = 0.6 / k as f64;
+                    let y0 = y + 0.2 + h * (k - 1 - s) as f64;
+                    Some(Rectangle::new([(0.0, y0), (v[s], y0 + h)], c.filled()))
+                }
+            })
+            .collect();
+        chart
+            .draw_series(rects)?
+            .label(name.clone())
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 15, y + 5)], c.filled()));
+    }
+    let texts: Vec<Text<(f64, f64), String>> = b
+        .groups
+        .iter()
+        .enumerate()
+        .map(|(g, (label, v))| {
+            let y = (n - 1 - g) as f64 + 0.6;
+            let end = if b.stacked {
+                v.iter().sum::<f64>()
+            } else {
+                v.iter().cloned().fold(0.0, f64::max)
+            };
+            let what = if b.stacked {
+                format!("{label}  {end:.2} ms")
+            } else {
+                label.clone()
+            };
+            Text::new(what, (end + xmax * 0.01, y), ("sans-serif", 15).into_font())
+        })
+        .collect();
+    chart.draw_series(texts)?;
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::LowerRight)
+        .draw()?;
+    root.present()?;
+    Ok(())
+}
+
+/// Every plot the rows support, written into `dir` with the given file-name prefix.
+pub fn all(rows: &[Row], pairs: &[PairRow], dir: &Path) -> Result<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    out.extend(speed_vs_error(rows, &dir.join("speed_vs_error"))?);
+    out.extend(tets_per_s_vs_size(rows, &dir.join("tets_per_s_vs_size"))?);
+    out.extend(time_vs_viewport(rows, &dir.join("time_vs_viewport"))?);
+    out.extend(pair_errors(pairs, &dir.join("pair_errors"))?);
+    out.extend(stage_bars(
+        rows,
+        &dir.join("stages"),
+        "Time per stage and variant",
+    )?);
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pareto_keeps_undominated_points() {
+        let p = |l: &str, e, s| SpeedError {
+            label: l.into(),
+            rmse: e,
+            mtets: s,
+        };
+        let pts = vec![
+            p("a", 0.0, 1.0),
+            p("b", 0.1, 5.0),
+            p("c", 0.2, 3.0),
+            p("d", 0.3, 9.0),
+        ];
+        assert_eq!(pareto_front(&pts), vec![0, 1, 3]);
+    }
+
+    #[test]
+    fn fit_recovers_slope() {
+        let pts: Vec<(f64, f64)> = (1..5).map(|i| (i as f64, 2.0 * i as f64 + 1.0)).collect();
+        let (b, a) = fit_line(&pts).unwrap();
+        assert!((b - 2.0).abs() < 1e-12 && (a - 1.0).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,298 @@
+//! `tetbench bench` and `plot` end to end on tiny experiments, and the reproduce table writer.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn tetbench(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_tetbench"))
+        .args(args)
+        .output()
+        .expect("run tetbench")
+}
+
+fn tmpdir(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("tetbench-bench-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn stderr_lines(o: &Output) -> Vec<String> {
+    String::from_utf8_lossy(&o.stderr)
+        .lines()
+        .filter(|l| !l.contains("XDG_RUNTIME_DIR"))
+        .map(String::from)
+        .collect()
+}
+
+const TINY: &str = r#"
+name = "tiny"
+datasets = ["spx:1500", { mesh = "torus", tets = 2000, label = "torus-2k" }]
+renderers = [{ name = "raycast", integrators = ["partial"] }, { name = "reference" }]
+sizes = ["32x32"]
+repeats = 2
+warmup = 1
+[views]
+named = ["0,0", "90,30"]
+"#;
+
+const COLUMNS: [&str; 30] = [
+    "dataset",
+    "tets",
+    "vertices",
+    "renderer",
+    "sort",
+    "integrator",
+    "width",
+    "height",
+    "view_id",
+    "azimuth",
+    "elevation",
+    "projection",
+    "repeats",
+    "threads",
+    "device",
+    "setup_ms",
+    "project_ms",
+    "sort_ms",
+    "draw_ms",
+    "readback_ms",
+    "total_ms",
+    "tets_per_s",
+    "cpu_bytes_per_tet",
+    "gpu_bytes_per_tet",
+    "rmse",
+    "psnr",
+    "max_abs",
+    "diff_pixels_pct",
+    "max_err_pct",
+    "avg_err_pct",
+];
+
+fn read_csv(p: &Path) -> (Vec<String>, Vec<Vec<String>>) {
+    let mut r = csv::Reader::from_path(p).unwrap();
+    let head: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
+    let rows = r
+        .records()
+        .map(|x| x.unwrap().iter().map(String::from).collect())
+        .collect();
+    (head, rows)
+}
+
+fn count_cache(dir: &Path) -> usize {
+    std::fs::read_dir(dir.join(".cache"))
+        .map(|d| d.count())
+        .unwrap_or(0)
+}
+
+#[test]
+fn tiny_bench_writes_rows_caches_references_and_plots() {
+    let d = tmpdir("tiny");
+    let cfg = d.join("tiny.toml");
+    std::fs::write(&cfg, TINY).unwrap();
+    let out = d.join("out");
+    let o = tetbench(&[
+        "bench",
+        cfg.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout).to_string();
+    assert!(
+        stdout.contains("reference_images: 4 rendered, 0 from cache"),
+        "{stdout}"
+    );
+
+    let (head, rows) = read_csv(&out.join("results.csv"));
+    for c in COLUMNS {
+        assert!(
+            head.iter().any(|h| h == c),
+            "column {c} missing in {head:?}"
+        );
+    }
+    // 2 datasets × 2 variants × 1 size × 2 views.
+    assert_eq!(rows.len(), 8);
+    let col = |name: &str| head.iter().position(|h| h == name).unwrap();
+    for r in &rows {
+        let num = |c: &str| r[col(c)].parse::<f64>().unwrap_or(f64::NAN);
+        assert_eq!(r[col("width")], "32");
+        assert_eq!(r[col("repeats")], "2");
+        assert!(num("tets") > 1000.0);
+        assert!(num("total_ms") > 0.0 && num("tets_per_s") > 0.0, "{r:?}");
+        assert!(num("cpu_bytes_per_tet") > 0.0, "{r:?}");
+        assert_eq!(num("gpu_bytes_per_tet"), 0.0);
+        assert!(num("rmse") >= 0.0 && num("rmse") < 0.5, "{r:?}");
+        if r[col("renderer")] == "reference" {
+            assert_eq!(num("rmse"), 0.0, "reference against itself: {r:?}");
+            assert_eq!(num("max_err_pct"), 0.0);
+            assert_eq!(r[col("psnr")], "inf");
+        }
+    }
+    assert_eq!(count_cache(&out), 4);
+
+    // Plots: PNG and SVG, non-empty.
+    for p in ["speed_vs_error", "stages"] {
+        for ext in ["png", "svg"] {
+            let f = out.join(format!("{p}.{ext}"));
+            let len = std::fs::metadata(&f).map(|m| m.len()).unwrap_or(0);
+            assert!(len > 1000, "{} is {len} bytes", f.display());
+        }
+    }
+    // Two mesh sizes: the throughput plot is drawn.
+    assert!(out.join("tets_per_s_vs_size.png").exists());
+
+    // Second run: every reference image from the cache.
+    let o = tetbench(&[
+        "bench",
+        cfg.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--no-plots",
+    ]);
+    assert!(o.status.success());
+    let stdout = String::from_utf8_lossy(&o.stdout).to_string();
+    assert!(
+        stdout.contains("reference_images: 0 rendered, 4 from cache"),
+        "{stdout}"
+    );
+    assert_eq!(count_cache(&out), 4);
+
+    // `plot` redraws from the CSV.
+    std::fs::remove_file(out.join("stages.png")).unwrap();
+    let o = tetbench(&["plot", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(std::fs::metadata(out.join("stages.png")).unwrap().len() > 1000);
+}
+
+#[test]
+fn rotation_views_and_saved_images() {
+    let d = tmpdir("rot");
+    let cfg = d.join("rot.toml");
+    std::fs::write(
+        &cfg,
+        r#"
+datasets = ["spx:800"]
+renderers = [{ name = "raycast" }]
+sizes = ["16x16"]
+repeats = 1
+warmup = 0
+error = false
+save_images = true
+views = { rotate = { frames = 3, axis = "y" } }
+"#,
+    )
+    .unwrap();
+    let out = d.join("out");
+    let o = tetbench(&[
+        "bench",
+        cfg.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--no-plots",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (head, rows) = read_csv(&out.join("results.csv"));
+    assert_eq!(rows.len(), 3);
+    let az = head.iter().position(|h| h == "azimuth").unwrap();
+    let az: Vec<f64> = rows.iter().map(|r| r[az].parse().unwrap()).collect();
+    assert_eq!(az, vec![0.0, 240.0, 120.0]);
+    let rmse = head.iter().position(|h| h == "rmse").unwrap();
+    assert!(
+        rows.iter().all(|r| r[rmse].is_empty()),
+        "error = false leaves it empty"
+    );
+    let imgs = std::fs::read_dir(out.join("images").join("spx_800"))
+        .unwrap()
+        .count();
+    assert_eq!(imgs, 6, "EXR + PNG per view");
+}
+
+fn assert_one_line_exit2(o: &Output, want: &[&str]) {
+    let lines = stderr_lines(o);
+    assert_eq!(o.status.code(), Some(2), "{lines:?}");
+    assert_eq!(lines.len(), 1, "{lines:?}");
+    for w in want {
+        assert!(lines[0].contains(w), "{w:?} not in {lines:?}");
+    }
+}
+
+#[test]
+fn bad_experiment_files_exit_2_naming_the_key() {
+    let d = tmpdir("bad");
+    let out = d.join("out");
+    let cases: [(&str, &[&str]); 6] = [
+        ("datasets = [\"spx\"]\nrenderers = [{ name = \"raycast\", integrator = [\"partial\"] }]\n", &["renderers[0]", "integrator"]),
+        ("datasets = [\"spx\"]\nrenderers = [{ name = \"raycats\" }]\n", &["renderers[0].name", "raycats"]),
+        ("datasets = [\"spx\"]\nrenderers = [{ name = \"raycast\" }]\nsizes = [\"32x\"]\n", &["sizes[0]"]),
+        ("datasets = [\"spx\"]\nrenderers = [{ name = \"raycast\" }]\nrepeats = \"three\"\n", &["repeats"]),
+        ("datasets = [\"nosuchmesh\"]\nrenderers = [{ name = \"raycast\" }]\n", &["datasets[0]", "nosuchmesh"]),
+        ("datasets = [\"spx\"]\nrenderers = [{ name = \"raycast\" }]\n[views]\nrotate = { frames = 4, axis = \"w\" }\n", &["views.rotate.axis"]),
+    ];
+    for (i, (text, want)) in cases.iter().enumerate() {
+        let cfg = d.join(format!("bad{i}.toml"));
+        std::fs::write(&cfg, text).unwrap();
+        let o = tetbench(&[
+            "bench",
+            cfg.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert_one_line_exit2(&o, want);
+        assert!(
+            !out.join("results.csv").exists(),
+            "no output for a bad config"
+        );
+    }
+    // Not TOML at all.
+    let cfg = d.join("garbage.toml");
+    std::fs::write(&cfg, "datasets = [\n").unwrap();
+    let o = tetbench(&[
+        "bench",
+        cfg.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_one_line_exit2(&o, &["garbage.toml"]);
+}
+
+#[test]
+fn table_writer_writes_csv_and_markdown() {
+    use tetbench::reproduce::{write_table, Table};
+    let d = tmpdir("table");
+    let t = Table {
+        id: "tiny-table".into(),
+        title: "Tiny table".into(),
+        columns: vec!["Dataset".into(), "paper fps".into(), "fps".into()],
+        hardware: vec![false, true, true],
+        rows: vec![vec!["spx".into(), "95.32".into(), "12.5".into()]],
+        notes: vec!["a note".into()],
+    };
+    write_table(&t, &d, "Test CPU, 2 cores", "2026-01-01 00:00 UTC").unwrap();
+    let md = std::fs::read_to_string(d.join("tiny-table.md")).unwrap();
+    assert!(md.contains("# Tiny table"));
+    assert!(md.contains("Test CPU, 2 cores") && md.contains("2026-01-01"));
+    assert!(md.contains("| Dataset | paper fps † | fps † |"), "{md}");
+    assert!(md.contains("| spx | 95.32 | 12.5 |"));
+    assert!(md.contains("- a note"));
+    let csv = std::fs::read_to_string(d.join("tiny-table.csv")).unwrap();
+    assert_eq!(csv, "Dataset,paper fps,fps\nspx,95.32,12.5\n");
+}
+
+#[test]
+fn reproduce_specs_cover_the_papers_tables() {
+    let ids: Vec<&str> = tetbench::reproduce::specs().iter().map(|s| s.id).collect();
+    for want in [
+        "ptint-table1",
+        "ptint-table2",
+        "ptint-fig8",
+        "hapt-table1",
+        "hapt-table2",
+        "hapt-table3",
+        "hapt-table4",
+    ] {
+        assert!(ids.contains(&want), "{want} missing");
+    }
+    let o = tetbench(&["reproduce", "--only", "nosuch", "--out", "/nonexistent/x"]);
+    assert_one_line_exit2(&o, &["nosuch"]);
+}

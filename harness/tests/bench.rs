@@ -296,3 +296,43 @@ fn reproduce_specs_cover_the_papers_tables() {
     let o = tetbench(&["reproduce", "--only", "nosuch", "--out", "/nonexistent/x"]);
     assert_one_line_exit2(&o, &["nosuch"]);
 }
+
+/// The worked example of docs/adding-a-renderer.md runs through `bench` like any renderer.
+#[test]
+fn the_added_variant_runs_through_bench() {
+    let d = tmpdir("slab16");
+    let cfg = d.join("slab16.toml");
+    std::fs::write(
+        &cfg,
+        r#"
+datasets = ["cc5:3000"]
+renderers = [{ name = "cpu-pt-slab16" }, { name = "cpu-pt", sorts = ["mpvonc"] }]
+sizes = ["32x32"]
+repeats = 1
+warmup = 0
+[views]
+named = ["30,20"]
+"#,
+    )
+    .unwrap();
+    let out = d.join("out");
+    let o = tetbench(&[
+        "bench",
+        cfg.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--no-plots",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (head, rows) = read_csv(&out.join("results.csv"));
+    let col = |name: &str| head.iter().position(|h| h == name).unwrap();
+    let slab = rows
+        .iter()
+        .find(|r| r[col("renderer")] == "cpu-pt-slab16")
+        .expect("a cpu-pt-slab16 row");
+    assert_eq!(slab[col("sort")], "bucket:16");
+    let rmse: f64 = slab[col("rmse")].parse().unwrap();
+    assert!(rmse.is_finite() && rmse < 0.05, "rmse {rmse}");
+    assert!(slab[col("tets_per_s")].parse::<f64>().unwrap() > 0.0);
+    std::fs::remove_dir_all(&d).ok();
+}

@@ -60,6 +60,8 @@ pub static CPU_PT: RendererInfo = RendererInfo {
 pub const TILE: u32 = 64;
 
 pub struct CpuPt {
+    /// The registry name this instance reports (`cpu-pt`, or a variant's).
+    name: &'static str,
     sort_name: String,
     integrator_name: String,
     state: Option<Prepared>,
@@ -110,6 +112,12 @@ impl Scratch {
 }
 
 impl CpuPt {
+    /// Reports itself under a variant's registry name.
+    pub fn named(mut self, name: &'static str) -> CpuPt {
+        self.name = name;
+        self
+    }
+
     /// `sort`: any name [`crate::sort::make`] knows (`bucket:N` included).
     pub fn new(sort: &str, integrator: &str) -> Result<CpuPt> {
         let sorter = crate::sort::make(sort)?;
@@ -120,6 +128,7 @@ impl CpuPt {
             )));
         }
         Ok(CpuPt {
+            name: "cpu-pt",
             sort_name: sort.to_string(),
             integrator_name: integrator.to_string(),
             state: None,
@@ -139,7 +148,7 @@ impl CpuPt {
 
 impl Renderer for CpuPt {
     fn name(&self) -> String {
-        "cpu-pt".to_string()
+        self.name.to_string()
     }
     fn sort_name(&self) -> String {
         self.sort_name.clone()

@@ -12,9 +12,6 @@ use crate::image::Image;
 use crate::mesh::Mesh;
 use crate::tf::TransferFunction;
 
-pub mod cpu_pt;
-pub mod raycast;
-
 /// Options a renderer is made with.
 #[derive(Clone, Debug, Default)]
 pub struct RenderOptions {
@@ -78,8 +75,23 @@ pub struct RendererInfo {
     pub make: fn(&RenderOptions) -> Result<Box<dyn Renderer>>,
 }
 
-/// Every renderer, by name: adding a variant is one new module and one line here.
-pub static REGISTRY: &[&RendererInfo] = &[&raycast::RAYCAST, &raycast::REFERENCE, &cpu_pt::CPU_PT];
+/// Declares each renderer module and lists its registry entries, so that the registry is the
+/// one place renderers are known by.
+macro_rules! registry {
+    ($($module:ident => [$($entry:ident),+],)+) => {
+        $(pub mod $module;)+
+        /// Every renderer, by name, in `tetbench list` order.
+        pub static REGISTRY: &[&RendererInfo] = &[$($(&$module::$entry,)+)+];
+    };
+}
+
+// The registry: adding a renderer is one new file in this directory and one line here
+// (docs/adding-a-renderer.md walks through it).
+registry! {
+    raycast => [RAYCAST, REFERENCE],
+    cpu_pt => [CPU_PT],
+    cpu_pt_slab16 => [CPU_PT_SLAB16],
+}
 
 /// Looks a renderer up by name.
 pub fn info(name: &str) -> Result<&'static RendererInfo> {

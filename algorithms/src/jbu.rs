@@ -422,47 +422,65 @@ pub fn upsample(
             let cols: Vec<(i64, Vec<f32>)> = ux.iter().map(|&u| axis(u, lw)).collect();
             let inv2s2 = (1.0 / (2.0 * params.sigma_r * params.sigma_r)) as f32;
             let n = 2 * r as usize;
+            // Low-res samples packed with their depth vectors (unused layers 0 on both sides).
+            let samples: Vec<([f32; 4], [f32; 4])> = (0..lh)
+                .flat_map(|b| (0..lw).map(move |a| (a, b)))
+                .map(|(a, b)| {
+                    let d = low_l.at(a, b);
+                    (
+                        low.get(a, b),
+                        std::array::from_fn(|c| if c < k { d[c] } else { 0.0 }),
+                    )
+                })
+                .collect();
             out.pixels
                 .par_chunks_mut(wu)
                 .enumerate()
                 .for_each(|(j, row)| {
                     let (b0, ey) = axis(uy[j], lh);
-                    let mut ex = vec![0.0f32; n * n];
+                    let mut xs = vec![0.0f32; n * n];
+                    let mut idx = vec![usize::MAX; n * n];
                     for (i, o) in row.iter_mut().enumerate() {
                         let (a0, exs) = &cols[i];
-                        let rp = full_l.at(i as u32, j as u32);
-                        let mut m = f32::NEG_INFINITY;
+                        let d = full_l.at(i as u32, j as u32);
+                        let rp: [f32; 4] = std::array::from_fn(|c| if c < k { d[c] } else { 0.0 });
+                        // Range exponents, and the smallest (the best depth match).
+                        let mut xmin = f32::INFINITY;
                         for (y, &eyv) in ey.iter().enumerate() {
                             for (x, &exv) in exs.iter().enumerate() {
-                                let s = eyv + exv;
-                                let e = if s == f32::NEG_INFINITY {
-                                    s
-                                } else {
-                                    let rq =
-                                        low_l.at((*a0 + x as i64) as u32, (b0 + y as i64) as u32);
-                                    let d2: f32 =
-                                        (0..k).map(|c| (rp[c] - rq[c]) * (rp[c] - rq[c])).sum();
-                                    s - d2 * inv2s2
-                                };
-                                ex[y * n + x] = e;
-                                m = m.max(e);
+                                let m = y * n + x;
+                                if eyv == f32::NEG_INFINITY || exv == f32::NEG_INFINITY {
+                                    idx[m] = usize::MAX;
+                                    continue;
+                                }
+                                let q = (b0 + y as i64) as usize * lw as usize
+                                    + (*a0 + x as i64) as usize;
+                                let rq = &samples[q].1;
+                                let d2 = (rp[0] - rq[0]) * (rp[0] - rq[0])
+                                    + (rp[1] - rq[1]) * (rp[1] - rq[1])
+                                    + (rp[2] - rq[2]) * (rp[2] - rq[2])
+                                    + (rp[3] - rq[3]) * (rp[3] - rq[3]);
+                                let xr = d2 * inv2s2 - exv - eyv;
+                                xs[m] = xr;
+                                idx[m] = q;
+                                xmin = xmin.min(xr);
                             }
                         }
                         let mut acc = [0.0f32; 4];
                         let mut wsum = 0.0f32;
-                        for y in 0..n {
-                            for x in 0..n {
-                                let e = ex[y * n + x];
-                                if e == f32::NEG_INFINITY {
-                                    continue;
-                                }
-                                let wgt = (e - m).exp();
-                                let p = low.get((*a0 + x as i64) as u32, (b0 + y as i64) as u32);
-                                for c in 0..4 {
-                                    acc[c] += wgt * p[c];
-                                }
-                                wsum += wgt;
+                        for m in 0..n * n {
+                            if idx[m] == usize::MAX {
+                                continue;
                             }
+                            let wgt = exp_neg(xs[m] - xmin);
+                            if wgt == 0.0 {
+                                continue;
+                            }
+                            let p = &samples[idx[m]].0;
+                            for c in 0..4 {
+                                acc[c] += wgt * p[c];
+                            }
+                            wsum += wgt;
                         }
                         *o = if wsum > 0.0 {
                             acc.map(|v| v / wsum)
@@ -474,6 +492,29 @@ pub fn upsample(
         }
     }
     Ok(out)
+}
+
+/// Steps per unit of the [`exp_neg`] table, and where it ends (e^−24 ≈ 4e-11).
+const EXP_STEPS: f32 = 64.0;
+const EXP_END: f32 = 24.0;
+
+/// e^−x for x ≥ 0 from a table with linear interpolation (relative error < 1e-4), 0 beyond
+/// [`EXP_END`] and for NaN/inf. The filter spends most of its time here.
+#[inline]
+fn exp_neg(x: f32) -> f32 {
+    static TABLE: std::sync::OnceLock<Vec<f32>> = std::sync::OnceLock::new();
+    let t = TABLE.get_or_init(|| {
+        (0..=(EXP_END * EXP_STEPS) as usize + 1)
+            .map(|i| (-(i as f64) / EXP_STEPS as f64).exp() as f32)
+            .collect()
+    });
+    if x.is_nan() || x >= EXP_END {
+        return 0.0;
+    }
+    let f = x.max(0.0) * EXP_STEPS;
+    let i = f as usize;
+    let a = t[i];
+    a + (t[i + 1] - a) * (f - i as f32)
 }
 
 /// The low-res camera for `full`: same view and projection, `lw`×`lh` pixels over the same

@@ -54,6 +54,9 @@ pub enum Command {
     },
     /// List renderers, sorts, integrators, transfer-function presets and datasets.
     List,
+    /// Joint bilateral upsampling experiment: time and RMSE per resolution (results/jbu.csv).
+    #[command(after_help = "Example: tetbench jbu --quick --out results")]
+    Jbu(crate::jbu::JbuArgs),
 }
 
 /// How a mesh is found and read.

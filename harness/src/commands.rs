@@ -36,6 +36,7 @@ pub fn run(cli: Cli) -> Result<()> {
             list();
             Ok(())
         }
+        Command::Jbu(args) => crate::jbu::run(&args),
     }
 }
 

@@ -6,6 +6,7 @@ pub mod camera;
 pub mod error;
 pub mod image;
 pub mod io;
+pub mod jbu;
 pub mod mesh;
 pub mod metrics;
 pub mod optics;

@@ -95,6 +95,9 @@ yet are skipped with a note in DIR/README.md.")]
         /// A directory written by `tetbench bench`.
         dir: PathBuf,
     },
+    /// Joint bilateral upsampling experiment: time and RMSE per resolution (results/jbu.csv).
+    #[command(after_help = "Example: tetbench jbu --quick --out results")]
+    Jbu(crate::jbu::JbuArgs),
 }
 
 /// How a mesh is found and read.

@@ -81,6 +81,7 @@ pub fn run(cli: Cli) -> Result<()> {
             }
             Ok(())
         }
+        Command::Jbu(args) => crate::jbu::run(&args),
     }
 }
 

@@ -4,6 +4,7 @@ pub mod bench;
 pub mod cli;
 pub mod commands;
 pub mod experiment;
+pub mod jbu;
 pub mod plots;
 pub mod reproduce;
 pub mod sysinfo;

@@ -1180,13 +1180,16 @@ fn hapt_t4_build(ctx: &Ctx, cfg: &Config, o: &Outcome) -> Table {
 // ---------------------------------------------------------------------------------------------
 
 /// Runs every table (or those in `only`), writing tables, plots and `DIR/README.md`.
+/// The id under which `--only` selects the JBU experiment (written as `jbu.csv`, `jbu.md`).
+pub const JBU_ID: &str = "jbu";
+
 pub fn run(quick: bool, out: &Path, only: &[String]) -> Result<()> {
     let ctx = Ctx { quick };
     let all = specs();
     for o in only {
-        if !all.iter().any(|s| s.id == o) {
+        if o != JBU_ID && !all.iter().any(|s| s.id == o) {
             return Err(Error::Input(format!(
-                "--only {o}: no such table (tables: {})",
+                "--only {o}: no such table (tables: {}, {JBU_ID})",
                 all.iter().map(|s| s.id).collect::<Vec<_>>().join(", ")
             )));
         }
@@ -1267,6 +1270,22 @@ pub fn run(quick: bool, out: &Path, only: &[String]) -> Result<()> {
             spec.title,
             table.rows.len(),
             secs
+        );
+    }
+    if only.is_empty() || only.iter().any(|o| o == JBU_ID) {
+        // The JBU paper's Fig. 3/4 and 5: its own experiment, with its own table layout.
+        let t0 = Instant::now();
+        crate::jbu::run(&crate::jbu::JbuArgs {
+            quick,
+            out: out.to_path_buf(),
+            datasets: None,
+            renderers: None,
+            repeats: 1,
+        })?;
+        let _ = writeln!(
+            readme,
+            "| [{JBU_ID}]({JBU_ID}.csv) | JBU Fig. 3/4 (time per resolution) and Fig. 5 (RMSE, bilateral vs linear) | {:.0} s |",
+            t0.elapsed().as_secs_f64()
         );
     }
     let total = started.elapsed().as_secs_f64();

@@ -91,10 +91,22 @@ registry! {
     raycast => [RAYCAST, REFERENCE],
     cpu_pt => [CPU_PT],
     cpu_pt_slab16 => [CPU_PT_SLAB16],
+    // The last entry, `jbu:<renderer>@<size>`, describes the wrapper pattern (see `is_wrapper`).
+    jbu => [JBU],
 }
 
-/// Looks a renderer up by name.
+/// Whether `name` is a wrapper (`jbu:...`), not a renderer of its own.
+pub fn is_wrapper(name: &str) -> bool {
+    name.starts_with(jbu::PREFIX)
+}
+
+/// Looks a renderer up by name. A `jbu:<renderer>@<size>` name is checked and answers with the
+/// inner renderer's entry (the wrapper takes exactly its sorts and integrators).
 pub fn info(name: &str) -> Result<&'static RendererInfo> {
+    if is_wrapper(name) {
+        let spec = jbu::Spec::parse(name)?;
+        return info(&spec.inner);
+    }
     REGISTRY
         .iter()
         .copied()
@@ -114,6 +126,9 @@ pub fn names() -> Vec<&'static str> {
 
 /// Makes a renderer by name, checking the sort and integrator names against what it accepts.
 pub fn make(name: &str, opts: &RenderOptions) -> Result<Box<dyn Renderer>> {
+    if is_wrapper(name) {
+        return jbu::make(name, opts);
+    }
     let info = info(name)?;
     if let Some(s) = &opts.sort {
         // `bucket:16` is the `bucket` sort with a parameter.

@@ -1,0 +1,224 @@
+//! `jbu:<renderer>@<low size>[,option=value...]`: any registered renderer run at a low
+//! resolution and brought to the requested size by joint bilateral upsampling (see
+//! [`crate::jbu`]).
+//!
+//! Name syntax:
+//! - `<renderer>`: a registered renderer (`raycast`, `cpu-pt`, ...; not another `jbu:`). Its sort
+//!   and integrator come from the `RenderOptions` as for the renderer itself.
+//! - `<low size>`: `N` (the longer side of the low image is N pixels, the other side keeps the
+//!   full image's aspect ratio) or `WxH`. It must not exceed the full image; equal to it, the
+//!   inner image is returned unchanged.
+//! - options, comma-separated after the size: `method=bilateral|linear|nearest` (default
+//!   bilateral), `k=1..4` depth layers (default 2), `sigma=F` range σ on normalised depth
+//!   (default 0.01), `r=1..8` low-res samples on each side (default 2: a 4×4 footprint).
+//!
+//! Examples: `jbu:raycast@128`, `jbu:cpu-pt@256x256`, `jbu:raycast@128,method=linear`,
+//! `jbu:raycast@256,k=4,sigma=0.02`.
+//!
+//! Frame times: `project_ms`, `sort_ms`, `draw_ms`, `readback_ms` are the inner renderer's at
+//! the low size; `total_ms` = `low_ms` + `depth_ms` + `filter_ms` (also given as counters),
+//! where `low_ms` is the wall time of the inner render.
+
+use std::time::Instant;
+
+use super::{ms_since, Frame, FrameTimes, RenderOptions, Renderer, RendererInfo};
+use crate::camera::Camera;
+use crate::error::{Error, Result};
+use crate::jbu::{low_camera, Method, Params, Upsampler};
+use crate::mesh::Mesh;
+use crate::tf::TransferFunction;
+
+/// Registry line describing the pattern (for `tetbench list`); a real wrapper is made from a
+/// full name by [`super::make`].
+pub static JBU: RendererInfo = RendererInfo {
+    name: "jbu:<renderer>@<size>",
+    description: "joint bilateral upsampling of <renderer> rendered at <size> (N or WxH); \
+                  options ,method=bilateral|linear|nearest ,k=1..4 ,sigma=0.01 ,r=2",
+    sorts: &[],
+    integrators: &["as <renderer>"],
+    make: |_| {
+        Err(Error::Input(
+            "jbu: give the inner renderer and low size, e.g. jbu:raycast@128".into(),
+        ))
+    },
+};
+
+/// The prefix of wrapper names.
+pub const PREFIX: &str = "jbu:";
+
+/// Low-res size: the longer side, or both sides.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LowSize {
+    Long(u32),
+    Exact(u32, u32),
+}
+
+impl LowSize {
+    /// The low image size for a full image of `w`×`h`.
+    pub fn resolve(self, w: u32, h: u32) -> (u32, u32) {
+        match self {
+            LowSize::Exact(a, b) => (a, b),
+            LowSize::Long(n) => {
+                let scale =
+                    |x: u32, long: u32| ((x as f64 * n as f64 / long as f64).round() as u32).max(1);
+                if w >= h {
+                    (n, scale(h, w))
+                } else {
+                    (scale(w, h), n)
+                }
+            }
+        }
+    }
+}
+
+/// A parsed wrapper name.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Spec {
+    pub inner: String,
+    pub low: LowSize,
+    pub params: Params,
+}
+
+impl Spec {
+    /// Parses a full name `jbu:<renderer>@<size>[,opt=value...]`.
+    pub fn parse(name: &str) -> Result<Spec> {
+        let bad = |why: String| {
+            Error::Input(format!(
+                "renderer '{name}': {why} (expected jbu:<renderer>@<N|WxH>[,method=bilateral|linear|nearest][,k=1..4][,sigma=F][,r=N])"
+            ))
+        };
+        let body = name
+            .strip_prefix(PREFIX)
+            .ok_or_else(|| bad("not a jbu: name".into()))?;
+        let (inner, rest) = body
+            .split_once('@')
+            .ok_or_else(|| bad("no low-res size after '@'".into()))?;
+        if inner.is_empty() {
+            return Err(bad("no inner renderer".into()));
+        }
+        if inner.starts_with(PREFIX) {
+            return Err(bad("jbu: wrappers do not nest".into()));
+        }
+        let mut parts = rest.split(',');
+        let size = parts.next().unwrap_or("").trim();
+        let num = |s: &str| -> Option<u32> { s.trim().parse::<u32>().ok().filter(|&v| v > 0) };
+        let low = match size.split_once(['x', 'X']) {
+            Some((a, b)) => match (num(a), num(b)) {
+                (Some(a), Some(b)) => LowSize::Exact(a, b),
+                _ => return Err(bad(format!("bad low-res size '{size}'"))),
+            },
+            None => {
+                LowSize::Long(num(size).ok_or_else(|| bad(format!("bad low-res size '{size}'")))?)
+            }
+        };
+        if matches!(low, LowSize::Long(n) | LowSize::Exact(n, _) | LowSize::Exact(_, n) if n > 16384)
+        {
+            return Err(bad(format!("low-res size '{size}' above 16384")));
+        }
+        let mut params = Params::default();
+        for opt in parts {
+            let (k, v) = opt
+                .split_once('=')
+                .ok_or_else(|| bad(format!("option '{opt}' is not key=value")))?;
+            let v = v.trim();
+            let badv = || bad(format!("bad value in '{opt}'"));
+            match k.trim() {
+                "method" => params.method = Method::parse(v).map_err(|e| bad(e.to_string()))?,
+                "k" => params.k = v.parse().map_err(|_| badv())?,
+                "sigma" => params.sigma_r = v.parse().map_err(|_| badv())?,
+                "r" => params.radius = v.parse().map_err(|_| badv())?,
+                other => return Err(bad(format!("unknown option '{other}'"))),
+            }
+        }
+        params.check().map_err(|e| bad(e.to_string()))?;
+        super::info(inner).map_err(|e| Error::Input(format!("renderer '{name}': {e}")))?;
+        Ok(Spec {
+            inner: inner.to_string(),
+            low,
+            params,
+        })
+    }
+}
+
+/// Makes the wrapper from a full `jbu:` name (checks the options against the inner renderer).
+pub fn make(name: &str, opts: &RenderOptions) -> Result<Box<dyn Renderer>> {
+    let spec = Spec::parse(name)?;
+    let inner = super::make(&spec.inner, opts)?;
+    Ok(Box::new(Jbu::new(name, spec, inner)?))
+}
+
+/// The wrapper renderer.
+pub struct Jbu {
+    name: String,
+    spec: Spec,
+    inner: Box<dyn Renderer>,
+    up: Upsampler,
+}
+
+impl Jbu {
+    pub fn new(name: &str, spec: Spec, inner: Box<dyn Renderer>) -> Result<Jbu> {
+        Ok(Jbu {
+            name: name.to_string(),
+            up: Upsampler::new(spec.params)?,
+            spec,
+            inner,
+        })
+    }
+    pub fn spec(&self) -> &Spec {
+        &self.spec
+    }
+}
+
+impl Renderer for Jbu {
+    fn name(&self) -> String {
+        self.name.clone()
+    }
+    fn sort_name(&self) -> String {
+        self.inner.sort_name()
+    }
+    fn integrator_name(&self) -> String {
+        self.inner.integrator_name()
+    }
+    fn prepare(&mut self, mesh: &Mesh, tf: &TransferFunction) -> Result<()> {
+        self.inner.prepare(mesh, tf)?;
+        self.up.prepare(mesh);
+        Ok(())
+    }
+    fn render(&mut self, mesh: &Mesh, camera: &Camera) -> Result<Frame> {
+        let (w, h) = (camera.width, camera.height);
+        let (lw, lh) = self.spec.low.resolve(w, h);
+        if lw > w || lh > h {
+            return Err(Error::Input(format!(
+                "renderer '{}': low-res size {lw}x{lh} is larger than the image {w}x{h}",
+                self.name
+            )));
+        }
+        let low_cam = low_camera(mesh, camera, lw, lh);
+        let t0 = Instant::now();
+        let low = self.inner.render(mesh, &low_cam)?;
+        let low_ms = ms_since(t0);
+        let up = self.up.run(&low.image, &low_cam, camera)?;
+        let mut counters = vec![
+            ("low_ms", low_ms),
+            ("depth_ms", up.depth_ms),
+            ("filter_ms", up.filter_ms),
+            ("low_width", lw as f64),
+            ("low_height", lh as f64),
+        ];
+        counters.extend(low.counters);
+        Ok(Frame {
+            image: up.image,
+            times: FrameTimes {
+                total_ms: low_ms + up.depth_ms + up.filter_ms,
+                ..low.times
+            },
+            counters,
+        })
+    }
+    fn gpu_bytes(&self) -> u64 {
+        self.inner.gpu_bytes()
+    }
+    fn device(&self) -> String {
+        self.inner.device()
+    }
+}

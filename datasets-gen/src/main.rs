@@ -39,6 +39,13 @@ fn step_path(out: &Path, k: usize) -> PathBuf {
 }
 
 fn main() -> ExitCode {
+    // `tetbench list | head` must end quietly, not panic on a closed pipe: restore the default
+    // SIGPIPE action (Rust ignores it, turning a closed pipe into a failing print).
+    #[cfg(unix)]
+    // SAFETY: called before any thread starts; SIG_DFL is a valid action for SIGPIPE.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let args = match Args::try_parse() {
         Ok(a) => a,
         Err(e) => {

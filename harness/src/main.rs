@@ -8,6 +8,13 @@ use clap::Parser;
 static ALLOC: algorithms::alloc::CountingAlloc = algorithms::alloc::CountingAlloc;
 
 fn main() -> ExitCode {
+    // `tetbench list | head` must end quietly, not panic on a closed pipe: restore the default
+    // SIGPIPE action (Rust ignores it, turning a closed pipe into a failing print).
+    #[cfg(unix)]
+    // SAFETY: called before any thread starts; SIG_DFL is a valid action for SIGPIPE.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = tetbench::cli::Cli::parse();
     // Ctrl-C: the first stops the run at the next frame (finished rows are already on disk),
     // the second exits at once.

@@ -9,6 +9,7 @@ pub mod io;
 pub mod mesh;
 pub mod metrics;
 pub mod optics;
+pub mod optics_f32;
 pub mod pt;
 pub mod render;
 pub mod sort;

@@ -161,8 +161,10 @@ pub fn raster_fan(g: &FanGeometry, clip: [i64; 4], mut f: impl FnMut(Fragment)) 
         for j in j0..=j1 {
             let p = [pixel_centre(i0), pixel_centre(j)];
             let mut v = [e0.at(p) + e0.bias, e1.at(p) + e1.bias, e2.at(p) + e2.bias];
+            let mut inside = false;
             for i in i0..=i1 {
                 if v[0] > 0 && v[1] > 0 && v[2] > 0 {
+                    inside = true;
                     f(Fragment {
                         i,
                         j,
@@ -170,6 +172,9 @@ pub fn raster_fan(g: &FanGeometry, clip: [i64; 4], mut f: impl FnMut(Fragment)) 
                         lx: (v[2] - e2.bias) as f64 * inv_x,
                         ly: (v[0] - e0.bias) as f64 * inv_y,
                     });
+                } else if inside {
+                    // The covered centres of a row are contiguous (the triangle is convex).
+                    break;
                 }
                 v[0] += st[0];
                 v[1] += st[1];

@@ -508,11 +508,19 @@ impl<S: Shade> DrawCtx<'_, S> {
         }
         let ts = TILE as i64;
         let mut n = 0u64;
+        // Per fan triangle, the attribute differences of its two silhouette vertices from the
+        // thick vertex.
+        let mut diff = [[[0.0f64; 5]; 2]; 4];
+        for (tri, d) in diff.iter_mut().enumerate().take(case.ntri as usize) {
+            for (e, v) in d.iter_mut().zip([case.fan[tri], case.fan[tri + 1]]) {
+                for c in 0..5 {
+                    e[c] = attr[v as usize][c] - attr[4][c];
+                }
+            }
+        }
         raster_fan(&g, clip, |f| {
-            let (x, y) = (case.fan[f.tri] as usize, case.fan[f.tri + 1] as usize);
-            let a = |c: usize| {
-                attr[4][c] + f.lx * (attr[x][c] - attr[4][c]) + f.ly * (attr[y][c] - attr[4][c])
-            };
+            let [dx, dy] = &diff[f.tri];
+            let a = |c: usize| attr[4][c] + f.lx * dx[c] + f.ly * dy[c];
             let k = ((f.j - clip[1]) * ts + (f.i - clip[0])) as usize;
             let (sf, sb, l) = if self.persp {
                 let (qf, qb) = (a(0), a(1));

@@ -10,6 +10,7 @@ pub mod jbu;
 pub mod mesh;
 pub mod metrics;
 pub mod optics;
+pub mod optics_f32;
 pub mod pt;
 pub mod render;
 pub mod sort;

@@ -82,6 +82,21 @@ fn first_centre(x: i64) -> i64 {
     v.div_euclid(SUBPIXEL) + (v.rem_euclid(SUBPIXEL) != 0) as i64
 }
 
+/// `x.floor() as i64` without the libm call (`f64::floor` is one on baseline x86-64); the
+/// snapped coordinates are far below 2^52, where the truncation is exact.
+#[inline]
+fn floor_i64(x: f64) -> i64 {
+    let t = x as i64;
+    t - ((t as f64) > x) as i64
+}
+
+/// `x.ceil() as i64`, as [`floor_i64`].
+#[inline]
+fn ceil_i64(x: f64) -> i64 {
+    let t = x as i64;
+    t + ((t as f64) < x) as i64
+}
+
 /// Index of the last pixel whose centre is ≤ `x`.
 #[inline]
 fn last_centre(x: i64) -> i64 {
@@ -143,8 +158,8 @@ pub fn raster_fan(g: &FanGeometry, clip: [i64; 4], mut f: impl FnMut(Fragment)) 
             continue; // cannot happen for a table entry on exact tests
         }
         let (inv_x, inv_y) = (1.0 / n_x as f64, 1.0 / n_y as f64);
-        let tx = [g.thick[0].floor() as i64, g.thick[0].ceil() as i64];
-        let ty = [g.thick[1].floor() as i64, g.thick[1].ceil() as i64];
+        let tx = [floor_i64(g.thick[0]), ceil_i64(g.thick[0])];
+        let ty = [floor_i64(g.thick[1]), ceil_i64(g.thick[1])];
         let i0 = first_centre(x[0].min(y[0]).min(tx[0])).max(clip[0]);
         let j0 = first_centre(x[1].min(y[1]).min(ty[0])).max(clip[1]);
         let i1 = last_centre(x[0].max(y[0]).max(tx[1])).min(clip[2]);
@@ -161,8 +176,10 @@ pub fn raster_fan(g: &FanGeometry, clip: [i64; 4], mut f: impl FnMut(Fragment)) 
         for j in j0..=j1 {
             let p = [pixel_centre(i0), pixel_centre(j)];
             let mut v = [e0.at(p) + e0.bias, e1.at(p) + e1.bias, e2.at(p) + e2.bias];
+            let mut inside = false;
             for i in i0..=i1 {
                 if v[0] > 0 && v[1] > 0 && v[2] > 0 {
+                    inside = true;
                     f(Fragment {
                         i,
                         j,
@@ -170,6 +187,9 @@ pub fn raster_fan(g: &FanGeometry, clip: [i64; 4], mut f: impl FnMut(Fragment)) 
                         lx: (v[2] - e2.bias) as f64 * inv_x,
                         ly: (v[0] - e0.bias) as f64 * inv_y,
                     });
+                } else if inside {
+                    // The covered centres of a row are contiguous (the triangle is convex).
+                    break;
                 }
                 v[0] += st[0];
                 v[1] += st[1];

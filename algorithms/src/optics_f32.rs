@@ -1,0 +1,245 @@
+//! f32 fast paths of the table-based integrators, for per-fragment use by `cpu-pt`.
+//!
+//! [`FastIntegrator`] is an enum (no dynamic dispatch; the hot call inlines into the
+//! rasterizer's loop) holding f32 copies of what `average`, `partial` and `preint` read:
+//! - the transfer function sampled at [`TF_SAMPLES`] points over `[s_lo, s_hi]` =
+//!   `[min(0, first point s), max(1, last point s)]`, linearly interpolated (constant beyond the
+//!   range, like the TF itself). The TF is piecewise linear, so this is exact but in the one
+//!   sample interval around each control point, where the error is at most
+//!   `slope·Δs/4` with `Δs = (s_hi − s_lo)/4095`;
+//! - `partial`'s Ψ table ([`PsiTable`], already f32) and `preint`'s [`PreintTable`] (f32);
+//! - exp by [`exp_neg`] (2^y by a polynomial; relative error ≤ 2e-6 for x ≤ 20, from rounding
+//!   x·log2 e in f32; absolute error ≤ 2e-7).
+//!
+//! `exact` has no fast path (it is the ground truth and stays in f64). The fast paths agree with
+//! the f64 integrators of [`crate::optics`] to ~1e-6 per segment away from TF control points;
+//! `cpu_pt`'s tests bound the image difference.
+
+use std::sync::Arc;
+
+use crate::optics::{PreintTable, PsiTable};
+use crate::tf::TransferFunction;
+
+/// Samples of the transfer-function table.
+pub const TF_SAMPLES: usize = 4096;
+
+/// The transfer function as an f32 table of `[r, g, b, τ]`.
+#[derive(Clone, Debug)]
+pub struct TfTable {
+    lo: f32,
+    scale: f32,
+    max: f32,
+    data: Vec<[f32; 4]>,
+}
+
+impl TfTable {
+    pub fn new(tf: &TransferFunction, n: usize) -> TfTable {
+        let n = n.max(2);
+        let pts = &tf.points;
+        let lo = pts[0].s.min(0.0);
+        let hi = pts[pts.len() - 1].s.max(1.0);
+        let data = (0..n)
+            .map(|i| {
+                let s = if i == n - 1 {
+                    hi
+                } else {
+                    lo + (hi - lo) * i as f64 / (n - 1) as f64
+                };
+                let (c, tau) = tf.eval(s);
+                [c[0] as f32, c[1] as f32, c[2] as f32, tau as f32]
+            })
+            .collect();
+        TfTable {
+            lo: lo as f32,
+            scale: ((n - 1) as f64 / (hi - lo)) as f32,
+            max: (n - 1) as f32,
+            data,
+        }
+    }
+
+    /// `[r, g, b, τ]` at `s` (finite).
+    #[inline(always)]
+    pub fn eval(&self, s: f32) -> [f32; 4] {
+        let x = ((s - self.lo) * self.scale).clamp(0.0, self.max);
+        let i = (x as i32 as usize).min(self.data.len() - 2);
+        let t = x - i as f32;
+        let (a, b) = (self.data[i], self.data[i + 1]);
+        [
+            a[0] + (b[0] - a[0]) * t,
+            a[1] + (b[1] - a[1]) * t,
+            a[2] + (b[2] - a[2]) * t,
+            a[3] + (b[3] - a[3]) * t,
+        ]
+    }
+}
+
+/// `exp(−x)` for `x ≥ 0` (a NaN gives a finite value in [0, 1]; +∞ gives ≈ 1e-38): relative
+/// error ≤ 2e-6 for x ≤ 20 (the rounding of x·log2 e), absolute ≤ 2e-7; exactly 1 at 0.
+#[inline(always)]
+pub fn exp_neg(x: f32) -> f32 {
+    // 2^y, y = −x·log2(e) ∈ [−126, 0], split y = n + f, f ∈ [−0.5, 0.5].
+    let y = (-x * std::f32::consts::LOG2_E).max(-126.0);
+    // Round to nearest by the 1.5·2^23 trick (f32::round is a libm call on baseline x86-64).
+    let n = (y + 12_582_912.0) - 12_582_912.0;
+    let f = y - n;
+    // Cephes exp2f polynomial: 2^f ≈ 1 + f·P(f).
+    let p = ((((1.535_336_2e-4 * f + 1.339_887_4e-3) * f + 9.618_437e-3) * f + 5.550_332_5e-2) * f
+        + 2.402_264_8e-1)
+        * f
+        + 6.931_472e-1;
+    let m = 1.0 + f * p;
+    let e = ((n as i32 + 127) as u32) << 23;
+    m * f32::from_bits(e)
+}
+
+/// `τ·l` with `0·∞ = 0`.
+#[inline(always)]
+fn tau_len(tau: f32, l: f32) -> f32 {
+    if tau == 0.0 {
+        0.0
+    } else {
+        tau * l
+    }
+}
+
+/// An f32 integrator; see the module documentation.
+#[derive(Clone, Debug)]
+pub enum FastIntegrator {
+    Average(TfTable),
+    Partial(TfTable, Arc<PsiTable>),
+    Preint(Arc<PreintTable>),
+}
+
+impl FastIntegrator {
+    /// The fast path for `name` (`average`, `partial`, `preint`), `None` for the others
+    /// (`exact`). `partial` uses the shared Ψ table and `preint` the table of
+    /// [`crate::optics::Preint::new`], as the f64 integrators do.
+    pub fn new(name: &str, tf: &TransferFunction) -> Option<FastIntegrator> {
+        Some(match name {
+            "average" => FastIntegrator::Average(TfTable::new(tf, TF_SAMPLES)),
+            "partial" => FastIntegrator::Partial(TfTable::new(tf, TF_SAMPLES), PsiTable::shared()),
+            "preint" => {
+                FastIntegrator::Preint(Arc::new(crate::optics::Preint::new(tf).table().clone()))
+            }
+            _ => return None,
+        })
+    }
+
+    /// Premultiplied `[r, g, b, α]` of one segment (same contract as
+    /// [`crate::optics::Integrator::segment`]: `l ≤ 0`, NaN or non-finite ends give 0).
+    #[inline(always)]
+    pub fn segment(&self, sf: f32, sb: f32, l: f32) -> [f32; 4] {
+        if !(sf.is_finite() && sb.is_finite() && l > 0.0) {
+            return [0.0; 4];
+        }
+        match self {
+            FastIntegrator::Average(tf) => {
+                let c = tf.eval(0.5 * sf + 0.5 * sb);
+                let alpha = 1.0 - exp_neg(tau_len(c[3], l));
+                [c[0] * alpha, c[1] * alpha, c[2] * alpha, alpha]
+            }
+            FastIntegrator::Partial(tf, psi) => {
+                let (cf, cb) = (tf.eval(sf), tf.eval(sb));
+                let (fa, fb) = (tau_len(cf[3], l), tau_len(cb[3], l));
+                let zeta = exp_neg(0.5 * (fa + fb));
+                let alpha = 1.0 - zeta;
+                let pmz = (psi_lookup(psi, fa, fb) - zeta).clamp(0.0, alpha);
+                [
+                    cf[0] * alpha + (cb[0] - cf[0]) * pmz,
+                    cf[1] * alpha + (cb[1] - cf[1]) * pmz,
+                    cf[2] * alpha + (cb[2] - cf[2]) * pmz,
+                    alpha,
+                ]
+            }
+            FastIntegrator::Preint(t) => preint_lookup(t, sf, sb, l),
+        }
+    }
+}
+
+/// Bilinear Ψ at the end depths `fa`, `fb` (≥ 0), as [`PsiTable::lookup`].
+#[inline(always)]
+fn psi_lookup(t: &PsiTable, fa: f32, fb: f32) -> f32 {
+    let n = t.size();
+    let m = (n - 1) as f32;
+    // γ = x/(1 + x) = 1 − 1/(1 + x): 1 at x = ∞ without a test.
+    let coord = |x: f32| {
+        let g = (1.0 - 1.0 / (1.0 + x)) * m;
+        let i = (g as i32 as usize).min(n - 2);
+        (i, g - i as f32)
+    };
+    let (i, ti) = coord(fa);
+    let (j, tj) = coord(fb);
+    let d = t.data();
+    let r0 = &d[j * n + i..j * n + i + 2];
+    let r1 = &d[(j + 1) * n + i..(j + 1) * n + i + 2];
+    let v0 = r0[0] + (r0[1] - r0[0]) * ti;
+    let v1 = r1[0] + (r1[1] - r1[0]) * ti;
+    v0 + (v1 - v0) * tj
+}
+
+/// Trilinear lookup as [`PreintTable::lookup`], in f32.
+#[inline(always)]
+fn preint_lookup(t: &PreintTable, sf: f32, sb: f32, l: f32) -> [f32; 4] {
+    let [n_s, _, n_l] = t.dims();
+    let [s_lo, s_hi] = t.s_range();
+    let scale = ((n_s - 1) as f64 / (s_hi - s_lo)) as f32;
+    let axis = |x: f32, n: usize| {
+        let x = x.clamp(0.0, (n - 1) as f32);
+        let i = (x as i32 as usize).min(n - 2);
+        (i, x - i as f32)
+    };
+    let (i, ti) = axis((sf - s_lo as f32) * scale, n_s);
+    let (j, tj) = axis((sb - s_lo as f32) * scale, n_s);
+    let lc = (l.min(PreintTable::L_MAX as f32) / PreintTable::L0 as f32).ln_1p()
+        * (1.0 / (PreintTable::L_MAX / PreintTable::L0).ln_1p()) as f32;
+    let (k, tk) = axis(lc * (n_l - 1) as f32, n_l);
+    let d = t.data();
+    let mut v = [0.0f32; 4];
+    for (dk, wk) in [(0, 1.0 - tk), (1, tk)] {
+        for (dj, wj) in [(0, 1.0 - tj), (1, tj)] {
+            let w = wk * wj;
+            let base = (((k + dk) * n_s + j + dj) * n_s + i) * 4;
+            let e = &d[base..base + 8];
+            for c in 0..4 {
+                v[c] += w * (e[c] + (e[4 + c] - e[c]) * ti);
+            }
+        }
+    }
+    let alpha = 1.0 - exp_neg(tau_len(v[3], l));
+    [v[0] * alpha, v[1] * alpha, v[2] * alpha, alpha]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exp_neg_matches_exp() {
+        let mut worst = 0.0f64;
+        for k in 0..200_000 {
+            let x = k as f32 * 1e-4; // 0..20
+            let e = (-(x as f64)).exp();
+            let r = ((exp_neg(x) as f64 - e) / e).abs();
+            worst = worst.max(r);
+        }
+        assert!(worst < 2e-6, "worst relative error {worst:e}");
+        assert_eq!(exp_neg(0.0), 1.0);
+        assert_eq!(exp_neg(f32::INFINITY), exp_neg(1e9));
+        assert!(exp_neg(1e9) < 1e-37);
+    }
+
+    #[test]
+    fn tf_table_matches_tf() {
+        let tf = TransferFunction::preset("default").unwrap();
+        let t = TfTable::new(&tf, TF_SAMPLES);
+        for k in 0..=2000 {
+            let s = -0.2 + 1.4 * k as f64 / 2000.0;
+            let (c, tau) = tf.eval(s);
+            let v = t.eval(s as f32);
+            for ch in 0..3 {
+                assert!((v[ch] as f64 - c[ch]).abs() < 1e-3, "s {s}");
+            }
+            assert!((v[3] as f64 - tau).abs() < 1e-2 * tau.max(1.0), "s {s}");
+        }
+    }
+}

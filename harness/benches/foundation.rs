@@ -69,10 +69,12 @@ fn raycast(c: &mut Criterion) {
             .map(|c| c.1)
             .unwrap_or(0.0);
         println!(
-            "raycast/{integ} on {name}: {} tets, cpu_bytes_per_tet {:.1}, cell_steps per frame {steps}, one frame {:.1} ms",
+            "raycast/{integ} on {name}: {} tets, cpu_bytes_per_tet {:.1}, cell_steps per frame {steps}, one frame {:.1} ms = {:.0} rays/s, {:.3e} cell-steps/s",
             fresh.num_tets(),
             bytes as f64 / fresh.num_tets() as f64,
-            frame.times.total_ms
+            frame.times.total_ms,
+            (w * h) as f64 / (frame.times.total_ms * 1e-3),
+            steps / (frame.times.total_ms * 1e-3)
         );
         g.throughput(Throughput::Elements((w * h) as u64));
         // cell-steps/s = rays/s × cell_steps / rays (printed above).

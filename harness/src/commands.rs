@@ -335,6 +335,10 @@ fn list() {
         }
         println!("  {:<12}   integrators: {}", "", r.integrators.join(", "));
     }
+    println!(
+        "sorts: {} (bucket:N for N depth slabs)",
+        algorithms::sort::SORTS.join(", ")
+    );
     println!("integrators: {}", optics::INTEGRATORS.join(", "));
     println!("transfer functions (presets): {}", tf::PRESETS.join(", "));
     println!("datasets (NASA grids, from $TETBENCH_DATA or ../shared/datasets):");

@@ -324,14 +324,18 @@ impl Mesh {
     pub fn degenerate_tets(&self) -> usize {
         let l = self.diagonal();
         let eps = 1e-14 * l * l * l;
-        self.volumes().iter().filter(|v| v.abs() < eps).count()
+        // A mesh collapsed to a point (L = 0) has every tet degenerate.
+        self.volumes()
+            .iter()
+            .filter(|v| v.abs() < eps || **v == 0.0)
+            .count()
     }
 
     /// Tets with negative signed volume (beyond the degenerate threshold).
     pub fn negative_tets(&self) -> usize {
         let l = self.diagonal();
         let eps = 1e-14 * l * l * l;
-        self.volumes().iter().filter(|&&v| v <= -eps).count()
+        self.volumes().iter().filter(|&&v| v < -eps).count()
     }
 
     /// Face adjacency, built by sorting the sorted vertex triples of all faces (4·tets keys):
@@ -424,7 +428,7 @@ fn build_adjacency(tets: &[[u32; 4]]) -> Adjacency {
 
 fn boundary_is_convex(mesh: &Mesh) -> bool {
     let faces = mesh.boundary_faces();
-    if faces.is_empty() {
+    if faces.is_empty() || mesh.diagonal() == 0.0 {
         return false;
     }
     let c = mesh.bbox().center();
@@ -611,6 +615,16 @@ mod tests {
         .unwrap();
         assert_eq!(m.degenerate_tets(), 1);
         assert_eq!(m.negative_tets(), 1);
+    }
+
+    #[test]
+    fn a_mesh_collapsed_to_a_point_is_all_degenerate() {
+        let p = vec![DVec3::ONE; 4];
+        let m = Mesh::with_scalars("pt", p, vec![[0, 1, 2, 3]], "s", vec![0.0; 4]).unwrap();
+        assert_eq!(m.diagonal(), 0.0);
+        assert_eq!(m.degenerate_tets(), 1);
+        assert_eq!(m.negative_tets(), 0);
+        assert!(!m.is_convex());
     }
 
     #[test]

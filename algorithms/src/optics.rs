@@ -174,8 +174,17 @@ fn psi_panels_dg(fa: f64, fb: f64, dg: f64) -> f64 {
         let last = v1 >= g_end;
         let u1 = if last { 1.0 } else { inv(v1).max(u0) };
         sum += gl10(u0, u1, integrand);
+        // Tail bound: g' = fa·(1 − u) + fb·u is linear, so beyond u₁ it is at least
+        // min(g'(u₁), fb) and the tail is ≤ exp(−v₁)·min(1 − u₁, 1/min(g'(u₁), fb)). Without the
+        // second term, huge depths (Ψ ≈ 1e-300) needed ~500 panels instead of ~30.
+        let slope = (fa * (1.0 - u1) + fb * u1).min(fb);
+        let tail_len = if slope > 0.0 {
+            (1.0 - u1).min(1.0 / slope)
+        } else {
+            1.0 - u1
+        };
         // exp(−v) underflows to 0 for v > 745, so the cap also guarantees termination.
-        if last || u1 >= 1.0 || (-v1).exp() <= 1e-18 * sum || v1 > 800.0 {
+        if last || u1 >= 1.0 || (-v1).exp() * tail_len <= 1e-18 * sum || v1 > 800.0 {
             break;
         }
         u0 = u1;
@@ -738,6 +747,8 @@ impl PreintTable {
             .map(|k| Self::coord_to_l(k as f64 / (n_l - 1) as f64))
             .collect();
         let plane = n_s * n_s * 4;
+        let max_tau = tf.max_tau();
+        let tau_scale = if max_tau > 0.0 { 1.0 / max_tau } else { 1.0 };
         // Computed in (s_b, s_f) order with l innermost, scattered into the l-major layout after.
         let mut cols = vec![0f32; plane * n_l];
         cols.par_chunks_mut(n_l * 4)
@@ -747,20 +758,24 @@ impl PreintTable {
                 split_pieces(tf, s_at(i), s_at(j), pieces);
                 // Mean extinction and the l → 0 limit of I/α: per piece ∫₀¹ τ du = (τ_f + τ_b)/2 and
                 // ∫₀¹ Cτ du = (C_f(2τ_f + τ_b) + C_b(τ_f + 2τ_b))/6.
-                let mut tau_mean = 0.0;
+                // Summed with τ scaled by 1/τ_max so that huge extinctions (up to f64::MAX)
+                // cannot overflow; c0 is scale-invariant.
+                let mut tau_mean_s = 0.0;
                 let mut ct = [0.0; 3];
                 let mut c_mean = [0.0; 3];
                 for p in pieces.iter() {
-                    tau_mean += p.frac * 0.5 * (p.tf + p.tb);
+                    let (tf_s, tb_s) = (p.tf * tau_scale, p.tb * tau_scale);
+                    tau_mean_s += p.frac * 0.5 * (tf_s + tb_s);
                     for c in 0..3 {
                         ct[c] += p.frac
-                            * (p.cf[c] * (2.0 * p.tf + p.tb) + p.cb[c] * (p.tf + 2.0 * p.tb))
+                            * (p.cf[c] * (2.0 * tf_s + tb_s) + p.cb[c] * (tf_s + 2.0 * tb_s))
                             / 6.0;
                         c_mean[c] += p.frac * 0.5 * (p.cf[c] + p.cb[c]);
                     }
                 }
-                let c0 = if tau_mean > 0.0 {
-                    ct.map(|x| x / tau_mean)
+                let tau_mean = tau_mean_s / tau_scale;
+                let c0 = if tau_mean_s > 0.0 {
+                    ct.map(|x| x / tau_mean_s)
                 } else {
                     c_mean
                 };
@@ -777,7 +792,9 @@ impl PreintTable {
                     };
                     let e = &mut col[k * 4..k * 4 + 4];
                     e[..3].copy_from_slice(&chat.map(|x| x as f32));
-                    e[3] = tau_mean as f32;
+                    // Capped so that f32 interpolation never meets inf − inf (τ·l > ~100 is
+                    // opaque anyway).
+                    e[3] = tau_mean.min(1e30) as f32;
                 }
             });
         let mut data = vec![0f32; plane * n_l];

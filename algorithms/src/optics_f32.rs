@@ -46,7 +46,14 @@ impl TfTable {
                     lo + (hi - lo) * i as f64 / (n - 1) as f64
                 };
                 let (c, tau) = tf.eval(s);
-                [c[0] as f32, c[1] as f32, c[2] as f32, tau as f32]
+                // τ beyond f32 range would interpolate to inf − inf = NaN; any τ·l above ~100 is
+                // opaque anyway, so cap it (colours are validated to be finite).
+                [
+                    c[0] as f32,
+                    c[1] as f32,
+                    c[2] as f32,
+                    tau.min(TAU_MAX) as f32,
+                ]
             })
             .collect();
         TfTable {
@@ -72,6 +79,9 @@ impl TfTable {
         ]
     }
 }
+
+/// The largest extinction the f32 table holds.
+const TAU_MAX: f64 = 1e30;
 
 /// `exp(−x)` for `x ≥ 0` (a NaN gives a finite value in [0, 1]; +∞ gives ≈ 1e-38): relative
 /// error ≤ 2e-6 for x ≤ 20 (the rounding of x·log2 e), absolute ≤ 2e-7; exactly 1 at 0.

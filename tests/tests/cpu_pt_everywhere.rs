@@ -102,3 +102,25 @@ fn degenerate_projections_and_slivers_match_the_reference() {
         }
     }
 }
+
+#[test]
+fn extinction_beyond_f32_range_stays_finite() {
+    // tau = 1e308 overflows f32; every renderer and integrator must still give finite pixels.
+    let tf = TransferFunction::from_json(
+        r#"{"points": [{"s": 0, "rgb": [1, 1, 1], "tau": 1e308}, {"s": 1, "rgb": [0.5, 1, 0], "tau": 1e308}]}"#,
+        "huge.json",
+    )
+    .unwrap();
+    let mesh = datasets_gen::generate("spx", Some(2000), 1).unwrap();
+    let cam = Camera::new(
+        &mesh.bbox(),
+        View::new(20.0, 10.0),
+        Projection::Persp,
+        24,
+        24,
+    );
+    for integ in ["average", "partial", "preint", "exact"] {
+        render("spx", &mesh, &tf, "cpu-pt", Some("centroid"), integ, &cam);
+        render("spx", &mesh, &tf, "raycast", None, integ, &cam);
+    }
+}

@@ -2,43 +2,28 @@
 
 use algorithms::camera::{Camera, Projection, View};
 use algorithms::glam::DVec3;
-use algorithms::io::split::{hex_corner, hex_split_pattern};
+use algorithms::io::split::split_structured;
 use algorithms::io::Split;
 use algorithms::render::raycast::RayCaster;
 use algorithms::render::Renderer;
 use algorithms::tf::{TfPoint, TransferFunction};
 use algorithms::Mesh;
 
-/// A box grid of nx×ny×nz cubes split 6 per cube (Kuhn), conforming; scalar from `f`.
+/// A box grid of nx×ny×nz cubes split 6 per cube (Kuhn, the readers' structured split), with
+/// scalars from `f`.
 fn kuhn_grid(n: [usize; 3], lo: DVec3, hi: DVec3, f: impl Fn(DVec3) -> f64) -> Mesh {
-    let idx = |i: usize, j: usize, k: usize| (i + (n[0] + 1) * (j + (n[1] + 1) * k)) as u32;
+    let dims = n.map(|c| c + 1);
     let mut pos = Vec::new();
-    for k in 0..=n[2] {
-        for j in 0..=n[1] {
-            for i in 0..=n[0] {
-                let t = DVec3::new(
-                    i as f64 / n[0] as f64,
-                    j as f64 / n[1] as f64,
-                    k as f64 / n[2] as f64,
-                );
+    for k in 0..dims[2] {
+        for j in 0..dims[1] {
+            for i in 0..dims[0] {
+                let t = DVec3::new(i as f64, j as f64, k as f64)
+                    / DVec3::new(n[0] as f64, n[1] as f64, n[2] as f64);
                 pos.push(lo + (hi - lo) * t);
             }
         }
     }
-    let mut tets = Vec::new();
-    for k in 0..n[2] {
-        for j in 0..n[1] {
-            for i in 0..n[0] {
-                let c: [u32; 8] = std::array::from_fn(|q| {
-                    let [x, y, z] = hex_corner(q);
-                    idx(i + x, j + y, k + z)
-                });
-                for t in hex_split_pattern(Split::Six, false) {
-                    tets.push(t.map(|v| c[v]));
-                }
-            }
-        }
-    }
+    let tets = split_structured("grid", dims, &pos, Split::Six).unwrap();
     let s = pos.iter().map(|p| f(*p)).collect();
     Mesh::with_scalars("grid", pos, tets, "s", s).unwrap()
 }

@@ -563,42 +563,22 @@ mod tests {
     use crate::render::raycast::RayCaster;
     use crate::tf::TfPoint;
 
-    /// A box grid of n[0]×n[1]×n[2] cubes, 6 tets per cube (Kuhn), conforming; scalar from `f`.
+    /// A box grid of n[0]×n[1]×n[2] cubes, 6 tets per cube (Kuhn, the readers' structured
+    /// split); scalar from `f`.
     pub(crate) fn kuhn_grid(n: [usize; 3], lo: DVec3, hi: DVec3, f: impl Fn(DVec3) -> f64) -> Mesh {
-        let idx = |i: usize, j: usize, k: usize| (i + (n[0] + 1) * (j + (n[1] + 1) * k)) as u32;
+        let dims = n.map(|c| c + 1);
         let mut pos = Vec::new();
-        for k in 0..=n[2] {
-            for j in 0..=n[1] {
-                for i in 0..=n[0] {
-                    let t = DVec3::new(
-                        i as f64 / n[0] as f64,
-                        j as f64 / n[1] as f64,
-                        k as f64 / n[2] as f64,
-                    );
+        for k in 0..dims[2] {
+            for j in 0..dims[1] {
+                for i in 0..dims[0] {
+                    let t = DVec3::new(i as f64, j as f64, k as f64)
+                        / DVec3::new(n[0] as f64, n[1] as f64, n[2] as f64);
                     pos.push(lo + (hi - lo) * t);
                 }
             }
         }
-        let mut tets = Vec::new();
-        for k in 0..n[2] {
-            for j in 0..n[1] {
-                for i in 0..n[0] {
-                    let c: Vec<u32> = (0..8)
-                        .map(|b| idx(i + (b & 1), j + ((b >> 1) & 1), k + ((b >> 2) & 1)))
-                        .collect();
-                    for t in [
-                        [0, 1, 3, 7],
-                        [0, 3, 2, 7],
-                        [0, 2, 6, 7],
-                        [0, 6, 4, 7],
-                        [0, 4, 5, 7],
-                        [0, 5, 1, 7],
-                    ] {
-                        tets.push(t.map(|v: usize| c[v]));
-                    }
-                }
-            }
-        }
+        let tets = crate::io::split::split_structured("grid", dims, &pos, crate::io::Split::Six)
+            .unwrap();
         let s = pos.iter().map(|p| f(*p)).collect();
         Mesh::with_scalars("grid", pos, tets, "s", s).unwrap()
     }

@@ -4,6 +4,7 @@
 pub mod alloc;
 pub mod camera;
 pub mod error;
+pub mod gpu;
 pub mod image;
 pub mod io;
 pub mod jbu;

@@ -64,6 +64,16 @@ impl TfTable {
         }
     }
 
+    /// The samples, `[r, g, b, τ]` at `lo + i / scale` (for upload to the GPU).
+    pub fn data(&self) -> &[[f32; 4]] {
+        &self.data
+    }
+
+    /// `(lo, scale)`: sample `i` is at `s = lo + i / scale`.
+    pub fn domain(&self) -> (f32, f32) {
+        (self.lo, self.scale)
+    }
+
     /// `[r, g, b, τ]` at `s` (finite).
     #[inline(always)]
     pub fn eval(&self, s: f32) -> [f32; 4] {

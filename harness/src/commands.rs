@@ -341,6 +341,16 @@ fn list() {
     );
     println!("integrators: {}", optics::INTEGRATORS.join(", "));
     println!("transfer functions (presets): {}", tf::PRESETS.join(", "));
+    // What the GPU renderers would run on (TETBENCH_ADAPTER=<index or name part> picks one).
+    let adapters = algorithms::gpu::adapters();
+    if adapters.is_empty() {
+        println!("gpu adapters: none (the GPU renderers will refuse to run)");
+    } else {
+        println!("gpu adapters (TETBENCH_ADAPTER=<index or part of the name>):");
+        for (i, a) in adapters.iter().enumerate() {
+            println!("  {i}: {}", algorithms::gpu::describe(a));
+        }
+    }
     println!("datasets (NASA grids, from $TETBENCH_DATA or ../shared/datasets):");
     for (n, f, s) in io::SHORT_NAMES {
         println!("  {n:<12} {f} ({s})");

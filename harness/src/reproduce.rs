@@ -1183,6 +1183,62 @@ fn hapt_t4_build(ctx: &Ctx, cfg: &Config, o: &Outcome) -> Table {
 /// The id under which `--only` selects the JBU experiment (written as `jbu.csv`, `jbu.md`).
 pub const JBU_ID: &str = "jbu";
 
+/// What a table measures and how to read it, for `DIR/README.md`.
+fn about(id: &str) -> &'static str {
+    match id {
+        "ptint-table1" => "Frame rate and tet/s of every projected-tetrahedra renderer (partial pre-integration) and the ray caster on the papers' datasets, the model rotating about the vertical axis. Each row carries its RMSE against the exact reference and its bytes per tet. Compare tet/s across rows of one run, not with the paper's 2006 GPU.",
+        "ptint-table2" => "The same frame rates on blunt and post beside PTINT's competitors; our ray caster stands in for HARC (partial and full pre-integration). Rows without a counterpart here (GATOR, VICP) keep only the paper's figures.",
+        "ptint-fig8" => "Frame time and K tet/s against the viewport size on post: how much of each renderer's time is per pixel (rasterisation, integration) and how much per tet (projection, sort).",
+        "hapt-table1" => "Image error between the centroid order and MPVONC, HAPT Table 1's metrics (CONVENTIONS §6, on 8-bit values) over views spread over a sphere: how often and how much the cheap sort is wrong. Large maxima on non-convex meshes can come from MPVONC's own limitation there (see docs/conventions.md).",
+        "hapt-table2" => "Dataset sizes and frame rates in direct volume rendering (and iso-surfaces where a renderer draws them), rotating, with error and memory per tet.",
+        "hapt-table3" => "Sort and draw time per variant on the spx2 analogue: where each algorithm spends its frame (stacked bars), with the error each order costs.",
+        "hapt-table4" => "Frame rates per variant on the torso and fighter analogues (1.1M and 1.4M tets).",
+        JBU_ID => "Joint bilateral upsampling: time per rendering resolution (JBU Fig. 3/4) and RMSE of bilateral against linear upsampling (Fig. 5), for the ray caster and cpu-pt.",
+        "bcc-pt" | "bcc_pt" => "CC against BCC sampling at equal information, rendered by projected tetrahedra with the implicit BCC order; error against a ground truth integrated from the analytic field.",
+        "bcc-reconstruction" | "bcc_reconstruction" => "Reconstruction schemes for ray casting a regular BCC volume against trilinear on CC: time and error per scheme (BCC paper Fig. 9).",
+        _ => "",
+    }
+}
+
+/// The status line of one table in `DIR/README.md`; kept in `DIR/raw/<id>/status.md` so that a
+/// later `--only` run rewrites the README without losing the tables it did not rerun.
+fn status_path(out: &Path, id: &str) -> PathBuf {
+    out.join("raw").join(id).join("status.md")
+}
+
+fn write_status(out: &Path, id: &str, line: &str) -> Result<()> {
+    let p = status_path(out, id);
+    if let Some(d) = p.parent() {
+        std::fs::create_dir_all(d).map_err(|e| Error::io(d, e))?;
+    }
+    std::fs::write(&p, line).map_err(|e| Error::io(&p, e))
+}
+
+/// The GPU adapter the GPU renderers use, when one of them is registered and an adapter exists.
+fn gpu_line() -> Option<String> {
+    let gpu_renderers: Vec<&str> = render::names()
+        .into_iter()
+        .filter(|n| ["ptint", "hapt"].contains(n))
+        .collect();
+    if gpu_renderers.is_empty() {
+        return None;
+    }
+    Some(match algorithms::gpu::Gpu::shared() {
+        Ok(g) => format!(
+            "{} ({}; render target {:?}){}",
+            algorithms::gpu::describe(&g.info),
+            gpu_renderers.join(", "),
+            g.target_format,
+            if g.info.device_type == algorithms::gpu::wgpu::DeviceType::Cpu {
+                " — a software rasteriser: GPU rows measure correctness and relative cost, not GPU speed"
+            } else {
+                ""
+            }
+        ),
+        Err(e) => format!("none ({e})"),
+    })
+}
+
 pub fn run(quick: bool, out: &Path, only: &[String]) -> Result<()> {
     let ctx = Ctx { quick };
     let all = specs();
@@ -1194,35 +1250,27 @@ pub fn run(quick: bool, out: &Path, only: &[String]) -> Result<()> {
             )));
         }
     }
+    let selected = |id: &str| only.is_empty() || only.iter().any(|o| o == id);
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
     let machine = crate::sysinfo::machine();
     let date = crate::sysinfo::now_utc();
     let started = Instant::now();
-    let mut readme = format!(
-        "# tetbench reproduce{}\n\n- machine: {machine}\n- threads: {}\n- date: {date}\n- renderers registered: {}\n\n| table | what | status |\n| --- | --- | --- |\n",
-        if quick { " --quick" } else { "" },
-        rayon::current_num_threads(),
-        render::names().join(", ")
-    );
     let cache = out.join(".cache");
-    for spec in all
-        .iter()
-        .filter(|s| only.is_empty() || only.iter().any(|o| o == s.id))
-    {
+    for spec in all.iter().filter(|s| selected(s.id)) {
         let cfg = match (spec.experiment)(&ctx) {
             Ok(c) => c,
             Err(why) => {
                 eprintln!("tetbench: {}: skipped: {why}", spec.id);
-                let _ = writeln!(readme, "| {} | {} | skipped: {why} |", spec.id, spec.title);
+                write_status(out, spec.id, &format!("skipped: {why} ({date})"))?;
                 continue;
             }
         };
         if cfg.renderers.is_empty() {
-            let _ = writeln!(
-                readme,
-                "| {} | {} | skipped: no renderer registered |",
-                spec.id, spec.title
-            );
+            write_status(
+                out,
+                spec.id,
+                &format!("skipped: no renderer registered ({date})"),
+            )?;
             continue;
         }
         let exp = experiment::validate(cfg.clone(), Path::new("."))?;
@@ -1263,16 +1311,19 @@ pub fn run(quick: bool, out: &Path, only: &[String]) -> Result<()> {
             out.join(format!("{}.md", spec.id)).display(),
             table.rows.len()
         );
-        let _ = writeln!(
-            readme,
-            "| [{0}]({0}.md) | {1} | {2} rows, {3:.0} s |",
+        write_status(
+            out,
             spec.id,
-            spec.title,
-            table.rows.len(),
-            secs
-        );
+            &format!(
+                "[{0}.md]({0}.md), [{0}.csv]({0}.csv): {1} rows, {2:.0} s ({date}{3})",
+                spec.id,
+                table.rows.len(),
+                secs,
+                if quick { ", --quick" } else { "" }
+            ),
+        )?;
     }
-    if only.is_empty() || only.iter().any(|o| o == JBU_ID) {
+    if selected(JBU_ID) {
         // The JBU paper's Fig. 3/4 and 5: its own experiment, with its own table layout.
         let t0 = Instant::now();
         crate::jbu::run(&crate::jbu::JbuArgs {
@@ -1282,14 +1333,52 @@ pub fn run(quick: bool, out: &Path, only: &[String]) -> Result<()> {
             renderers: None,
             repeats: 1,
         })?;
-        let _ = writeln!(
-            readme,
-            "| [{JBU_ID}]({JBU_ID}.csv) | JBU Fig. 3/4 (time per resolution) and Fig. 5 (RMSE, bilateral vs linear) | {:.0} s |",
-            t0.elapsed().as_secs_f64()
-        );
+        write_status(
+            out,
+            JBU_ID,
+            &format!(
+                "[{JBU_ID}.md]({JBU_ID}.md), [{JBU_ID}.csv]({JBU_ID}.csv): {:.0} s ({date}{})",
+                t0.elapsed().as_secs_f64(),
+                if quick { ", --quick" } else { "" }
+            ),
+        )?;
     }
     let total = started.elapsed().as_secs_f64();
-    let _ = writeln!(readme, "\nTotal wall time: {total:.0} s.\n\nColumns marked † in the tables depend on the hardware. The paper's own figures are in the `paper …` columns (from the papers' text; GPU timings from 2006–2010 hardware). Tables that need renderers not registered yet are listed as skipped; rerun when they land.");
+
+    // The README lists every table: this run's and, after an `--only` run, the earlier ones.
+    let mut readme = format!(
+        "# tetbench reproduce{}\n\n- machine: {machine}\n- threads: {}\n",
+        if quick { " --quick" } else { "" },
+        rayon::current_num_threads(),
+    );
+    if let Some(g) = gpu_line() {
+        let _ = writeln!(readme, "- GPU adapter: {g}");
+    }
+    let _ = writeln!(
+        readme,
+        "- last run: {date}{}, {total:.0} s\n- renderers registered: {}\n\nEach table is a `.md` laid out like the paper's table, with the paper's own figures in the `paper …` columns, and a `.csv` of the same rows; the raw measurements (one row per frame and view, every row with its error against the exact reference and its bytes per tet) are in `raw/<table>/results.csv`. Columns marked † depend on the hardware (times and rates); sizes, errors and bytes per tet do not. The papers' GPU timings come from 2006–2010 hardware: compare rates between rows of one run, not with the paper.\n\n| table | what it measures | status |\n| --- | --- | --- |",
+        if only.is_empty() {
+            String::new()
+        } else {
+            format!(" (--only {})", only.join(","))
+        },
+        render::names().join(", ")
+    );
+    let ids: Vec<(&str, &str)> = all
+        .iter()
+        .map(|s| (s.id, s.title))
+        .chain([(JBU_ID, "JBU Fig. 3/4 and Fig. 5")])
+        .collect();
+    for (id, title) in ids {
+        let status = std::fs::read_to_string(status_path(out, id))
+            .map(|s| s.trim().to_string())
+            .unwrap_or_else(|_| "not run yet".into());
+        let what = match about(id) {
+            "" => title.to_string(),
+            a => format!("**{title}.** {a}"),
+        };
+        let _ = writeln!(readme, "| {id} | {what} | {status} |");
+    }
     let rp = out.join("README.md");
     std::fs::write(&rp, readme).map_err(|e| Error::io(&rp, e))?;
     println!("wall_time_s: {total:.1}");

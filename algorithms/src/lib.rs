@@ -7,6 +7,7 @@ pub mod error;
 pub mod image;
 pub mod io;
 pub mod jbu;
+pub mod lattice;
 pub mod mesh;
 pub mod metrics;
 pub mod optics;

@@ -2,6 +2,7 @@
 //! visibility sorts and the renderers, shared by the `tetbench` harness and `datasets-gen`.
 
 pub mod alloc;
+pub mod bcc_recon;
 pub mod camera;
 pub mod error;
 pub mod image;

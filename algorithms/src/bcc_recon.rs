@@ -412,7 +412,18 @@ impl BccDomain {
     }
 }
 
+/// How samples along a ray become a pixel: the TF's scalar map, the per-segment integrator,
+/// the world step between samples and `L` (optical length = world length / `L`).
+#[derive(Clone, Copy)]
+pub struct Sampling<'a> {
+    pub map: ScalarMap,
+    pub integ: &'a dyn Integrator,
+    pub step: f64,
+    pub diag: f64,
+}
+
 /// The volume a ray caster reads.
+#[derive(Clone, Copy)]
 pub enum Volume<'a> {
     Cc(&'a CcVolume),
     Bcc(&'a BccVolume),
@@ -466,17 +477,20 @@ fn check_ortho(camera: &Camera) -> Result<()> {
     Ok(())
 }
 
-/// Ray casts `vol` with `scheme` at world step `step` (`bil`: at the plane intersections),
-/// `l` normalised by `diag` (the `L` of the images compared).
+/// Ray casts `vol` with `scheme` at the world step of `sampling` (`bil`: at the plane
+/// intersections), `l` normalised by its `diag` (the `L` of the images compared).
 pub fn raycast(
     vol: Volume<'_>,
     scheme: Scheme,
     camera: &Camera,
-    map: ScalarMap,
-    integ: &dyn Integrator,
-    step: f64,
-    diag: f64,
+    sampling: Sampling<'_>,
 ) -> Result<Image> {
+    let Sampling {
+        map,
+        integ,
+        step,
+        diag,
+    } = sampling;
     check_ortho(camera)?;
     let (bbox, h, origin) = match (&vol, scheme) {
         (Volume::Cc(v), Scheme::Trilinear) => (v.bbox(), v.h, v.origin),
@@ -572,11 +586,14 @@ pub fn ground_truth(
     inside: &(dyn Fn(DVec3) -> bool + Sync),
     bbox: &Aabb,
     camera: &Camera,
-    map: ScalarMap,
-    integ: &dyn Integrator,
-    step: f64,
-    diag: f64,
+    sampling: Sampling<'_>,
 ) -> Result<Image> {
+    let Sampling {
+        map,
+        integ,
+        step,
+        diag,
+    } = sampling;
     check_ortho(camera)?;
     let inv_l = 1.0 / diag;
     // A hair larger, so that points on the box face count.

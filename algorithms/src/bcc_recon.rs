@@ -86,6 +86,15 @@ impl Scheme {
     }
 }
 
+/// The box of grid points `o + h·(i, j, k)`, `i < n`.
+fn grid_box(n: [usize; 3], origin: DVec3, h: DVec3) -> Aabb {
+    let last = DVec3::new(n[0] as f64, n[1] as f64, n[2] as f64) - 1.0;
+    Aabb {
+        min: origin,
+        max: origin + h * last,
+    }
+}
+
 /// A regular CC volume.
 #[derive(Clone, Debug)]
 pub struct CcVolume {
@@ -118,12 +127,7 @@ impl CcVolume {
     }
 
     fn bbox(&self) -> Aabb {
-        let hi = self.origin
-            + self.h * (DVec3::new(self.n[0] as f64, self.n[1] as f64, self.n[2] as f64) - 1.0);
-        Aabb {
-            min: self.origin,
-            max: hi,
-        }
+        grid_box(self.n, self.origin, self.h)
     }
 
     #[inline]
@@ -221,12 +225,7 @@ impl BccVolume {
     }
 
     fn bbox(&self) -> Aabb {
-        let hi = self.origin
-            + self.h * (DVec3::new(self.n[0] as f64, self.n[1] as f64, self.n[2] as f64) - 1.0);
-        Aabb {
-            min: self.origin,
-            max: hi,
-        }
+        grid_box(self.n, self.origin, self.h)
     }
 
     #[inline]
@@ -468,6 +467,32 @@ fn integrate(samples: &[(f64, f64)], integ: &dyn Integrator, inv_l: f64) -> [f32
     ]
 }
 
+/// Shades every pixel whose orthographic ray meets `bbox`: `shade(scratch, o, dir, t0, t1)`
+/// with the ray's world origin `o`, direction and clip interval; rows in parallel.
+fn per_pixel(
+    camera: &Camera,
+    bbox: &Aabb,
+    shade: impl Fn(&mut Vec<(f64, f64)>, DVec3, DVec3, f64, f64) -> [f32; 4] + Sync,
+) -> Image {
+    let (w, hgt) = (camera.width, camera.height);
+    let mut img = Image::new(w, hgt);
+    img.pixels
+        .par_chunks_mut(w as usize)
+        .enumerate()
+        .for_each(|(j, row)| {
+            let mut scratch = Vec::new();
+            for (i, px) in row.iter_mut().enumerate() {
+                let ray = camera.pixel_ray(i as u32, j as u32);
+                let o = camera.center + ray.origin;
+                if let Some((t0, t1)) = clip(bbox, o, ray.dir) {
+                    scratch.clear();
+                    *px = shade(&mut scratch, o, ray.dir, t0, t1);
+                }
+            }
+        });
+    img
+}
+
 fn check_ortho(camera: &Camera) -> Result<()> {
     if camera.projection != Projection::Ortho {
         return Err(Error::Input(
@@ -513,70 +538,53 @@ pub fn raycast(
         sgn(g[(c + 2) % 3] * g[c].signum()),
     ];
     let inv_l = 1.0 / diag;
-    let (w, hgt) = (camera.width, camera.height);
-    let mut img = Image::new(w, hgt);
-    img.pixels
-        .par_chunks_mut(w as usize)
-        .enumerate()
-        .for_each(|(j, row)| {
-            let mut samples = Vec::new();
-            for (i, px) in row.iter_mut().enumerate() {
-                let ray = camera.pixel_ray(i as u32, j as u32);
-                let o = camera.center + ray.origin;
-                let Some((t0, t1)) = clip(&bbox, o, ray.dir) else {
-                    continue;
-                };
-                samples.clear();
-                let lat = |t: f64| ((o + t * ray.dir - origin) / h).to_array();
-                let value = |t: f64| -> f64 {
-                    let x = lat(t);
-                    match (&vol, scheme) {
-                        (Volume::Cc(v), _) => v.trilinear(x),
-                        (Volume::Bcc(v), Scheme::BilinearSpatial) => v.bilinear_spatial(x, c),
-                        (Volume::Bcc(v), Scheme::Barycentric) => v.barycentric(x),
-                        (Volume::Bcc(v), Scheme::ShearedTrilinear) => {
-                            v.sheared_trilinear(x, c, sigma)
-                        }
-                        (Volume::Bcc(v), _) => {
-                            // At a plane: ξ_c = k/2 exactly up to rounding.
-                            let k = (2.0 * x[c]).round();
-                            v.plane_bilinear(c, k as i64, x[(c + 1) % 3], x[(c + 2) % 3])
-                        }
-                    }
-                };
-                if scheme == Scheme::Bilinear {
-                    // The ray parameter of plane k: ξ_c(t) = k/2.
-                    let (z0, z1) = (2.0 * lat(t0)[c], 2.0 * lat(t1)[c]);
-                    let (k0, k1) = (z0.min(z1).ceil() as i64, z0.max(z1).floor() as i64);
-                    let dz = 2.0 * g[c];
-                    let t_of = |k: i64| {
-                        let x0 = 2.0 * lat(0.0)[c];
-                        (k as f64 - x0) / dz
-                    };
-                    let ks: Vec<i64> = if dz > 0.0 {
-                        (k0..=k1).collect()
-                    } else {
-                        (k0..=k1).rev().collect()
-                    };
-                    for k in ks {
-                        let t = t_of(k);
-                        let x = lat(t);
-                        if let Volume::Bcc(v) = &vol {
-                            let s = v.plane_bilinear(c, k, x[(c + 1) % 3], x[(c + 2) % 3]);
-                            samples.push((t, map.s(s)));
-                        }
-                    }
-                } else {
-                    let m = ((t1 - t0) / step).ceil().max(1.0) as usize;
-                    for q in 0..=m {
-                        let t = (t0 + q as f64 * step).min(t1);
-                        samples.push((t, map.s(value(t))));
-                    }
+    Ok(per_pixel(camera, &bbox, |samples, o, dir, t0, t1| {
+        let lat = |t: f64| ((o + t * dir - origin) / h).to_array();
+        let value = |t: f64| -> f64 {
+            let x = lat(t);
+            match (&vol, scheme) {
+                (Volume::Cc(v), _) => v.trilinear(x),
+                (Volume::Bcc(v), Scheme::BilinearSpatial) => v.bilinear_spatial(x, c),
+                (Volume::Bcc(v), Scheme::Barycentric) => v.barycentric(x),
+                (Volume::Bcc(v), Scheme::ShearedTrilinear) => v.sheared_trilinear(x, c, sigma),
+                (Volume::Bcc(v), _) => {
+                    // At a plane: ξ_c = k/2 exactly up to rounding.
+                    let k = (2.0 * x[c]).round();
+                    v.plane_bilinear(c, k as i64, x[(c + 1) % 3], x[(c + 2) % 3])
                 }
-                *px = integrate(&samples, integ, inv_l);
             }
-        });
-    Ok(img)
+        };
+        if scheme == Scheme::Bilinear {
+            // The ray parameter of plane k: ξ_c(t) = k/2.
+            let (z0, z1) = (2.0 * lat(t0)[c], 2.0 * lat(t1)[c]);
+            let (k0, k1) = (z0.min(z1).ceil() as i64, z0.max(z1).floor() as i64);
+            let dz = 2.0 * g[c];
+            let t_of = |k: i64| {
+                let x0 = 2.0 * lat(0.0)[c];
+                (k as f64 - x0) / dz
+            };
+            let ks: Vec<i64> = if dz > 0.0 {
+                (k0..=k1).collect()
+            } else {
+                (k0..=k1).rev().collect()
+            };
+            for k in ks {
+                let t = t_of(k);
+                let x = lat(t);
+                if let Volume::Bcc(v) = &vol {
+                    let s = v.plane_bilinear(c, k, x[(c + 1) % 3], x[(c + 2) % 3]);
+                    samples.push((t, map.s(s)));
+                }
+            }
+        } else {
+            let m = ((t1 - t0) / step).ceil().max(1.0) as usize;
+            for q in 0..=m {
+                let t = (t0 + q as f64 * step).min(t1);
+                samples.push((t, map.s(value(t))));
+            }
+        }
+        integrate(samples, integ, inv_l)
+    }))
 }
 
 /// Ray-integrates the analytic field `field` over the domain `inside` (a point test; `bbox`
@@ -602,76 +610,62 @@ pub fn ground_truth(
         min: bbox.min - pad,
         max: bbox.max + pad,
     };
-    let (w, hgt) = (camera.width, camera.height);
-    let mut img = Image::new(w, hgt);
-    img.pixels
-        .par_chunks_mut(w as usize)
-        .enumerate()
-        .for_each(|(j, row)| {
-            let mut run: Vec<(f64, f64)> = Vec::new();
-            for (i, px) in row.iter_mut().enumerate() {
-                let ray = camera.pixel_ray(i as u32, j as u32);
-                let o = camera.center + ray.origin;
-                let Some((t0, t1)) = clip(&big, o, ray.dir) else {
-                    continue;
-                };
-                let at = |t: f64| o + t * ray.dir;
-                let mut acc = Segment::default();
-                let m = ((t1 - t0) / step).ceil().max(1.0) as usize;
-                let mut prev_t = t0;
-                let mut prev_in = inside(at(t0));
-                run.clear();
+    Ok(per_pixel(camera, &big, |run, o, dir, t0, t1| {
+        let at = |t: f64| o + t * dir;
+        let mut acc = Segment::default();
+        let m = ((t1 - t0) / step).ceil().max(1.0) as usize;
+        let mut prev_t = t0;
+        let mut prev_in = inside(at(t0));
+        run.clear();
+        if prev_in {
+            run.push((t0, map.s(field(at(t0)))));
+        }
+        let flush = |run: &mut Vec<(f64, f64)>, acc: &mut Segment| {
+            let seg = integrate(run, integ, inv_l);
+            let s = Segment {
+                rgb: [seg[0] as f64, seg[1] as f64, seg[2] as f64],
+                alpha: seg[3] as f64,
+            };
+            composite_under(acc, s);
+            run.clear();
+        };
+        for q in 1..=m {
+            let t = (t0 + q as f64 * step).min(t1);
+            let now_in = inside(at(t));
+            if now_in != prev_in {
+                // Bisect the crossing.
+                let (mut a, mut b) = (prev_t, t);
+                while b - a > 1e-9 * step {
+                    let mid = 0.5 * (a + b);
+                    if inside(at(mid)) == prev_in {
+                        a = mid;
+                    } else {
+                        b = mid;
+                    }
+                }
                 if prev_in {
-                    run.push((t0, map.s(field(at(t0)))));
+                    run.push((a, map.s(field(at(a)))));
+                    flush(run, &mut acc);
+                } else {
+                    run.push((b, map.s(field(at(b)))));
                 }
-                let flush = |run: &mut Vec<(f64, f64)>, acc: &mut Segment| {
-                    let seg = integrate(run, integ, inv_l);
-                    let s = Segment {
-                        rgb: [seg[0] as f64, seg[1] as f64, seg[2] as f64],
-                        alpha: seg[3] as f64,
-                    };
-                    composite_under(acc, s);
-                    run.clear();
-                };
-                for q in 1..=m {
-                    let t = (t0 + q as f64 * step).min(t1);
-                    let now_in = inside(at(t));
-                    if now_in != prev_in {
-                        // Bisect the crossing.
-                        let (mut a, mut b) = (prev_t, t);
-                        while b - a > 1e-9 * step {
-                            let mid = 0.5 * (a + b);
-                            if inside(at(mid)) == prev_in {
-                                a = mid;
-                            } else {
-                                b = mid;
-                            }
-                        }
-                        if prev_in {
-                            run.push((a, map.s(field(at(a)))));
-                            flush(&mut run, &mut acc);
-                        } else {
-                            run.push((b, map.s(field(at(b)))));
-                        }
-                    }
-                    if now_in {
-                        run.push((t, map.s(field(at(t)))));
-                    }
-                    prev_t = t;
-                    prev_in = now_in;
-                }
-                if !run.is_empty() {
-                    flush(&mut run, &mut acc);
-                }
-                *px = [
-                    acc.rgb[0] as f32,
-                    acc.rgb[1] as f32,
-                    acc.rgb[2] as f32,
-                    acc.alpha as f32,
-                ];
             }
-        });
-    Ok(img)
+            if now_in {
+                run.push((t, map.s(field(at(t)))));
+            }
+            prev_t = t;
+            prev_in = now_in;
+        }
+        if !run.is_empty() {
+            flush(run, &mut acc);
+        }
+        [
+            acc.rgb[0] as f32,
+            acc.rgb[1] as f32,
+            acc.rgb[2] as f32,
+            acc.alpha as f32,
+        ]
+    }))
 }
 
 #[cfg(test)]

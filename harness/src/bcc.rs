@@ -32,6 +32,7 @@ use algorithms::{alloc, Mesh, Result};
 use datasets_gen::fields;
 use datasets_gen::grid::{bcc_lattice, cc_lattice, Lattice, Split};
 
+use crate::bench::median;
 use crate::plots::{self, TimeError};
 use crate::reproduce::Table;
 
@@ -158,15 +159,6 @@ fn mean_err(e: &[ImageError]) -> ImageError {
     }
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    if v.is_empty() {
-        f64::NAN
-    } else {
-        v[v.len() / 2]
-    }
-}
-
 fn fmt(v: f64, digits: usize) -> String {
     if v.is_finite() {
         format!("{v:.digits$}")
@@ -186,14 +178,16 @@ fn err_cols(e: &ImageError) -> Vec<String> {
     ]
 }
 
-const ERR_COLS: [&str; 6] = [
-    "rmse",
-    "psnr",
-    "max_abs",
-    "diff_pixels_pct",
-    "max_err_pct",
-    "avg_err_pct",
-];
+/// An empty table with `cols` then the §6 error columns; `hw` are the hardware-dependent ones.
+fn table(cols: &[&str], hw: &[&str]) -> Table {
+    let errs = mean_err(&[]).fields().map(|(name, _)| name);
+    let columns: Vec<String> = cols.iter().chain(&errs).map(|s| s.to_string()).collect();
+    Table {
+        hardware: columns.iter().map(|c| hw.contains(&c.as_str())).collect(),
+        columns,
+        ..Default::default()
+    }
+}
 
 struct PtRun {
     times: Vec<f64>,
@@ -285,8 +279,8 @@ fn errors(images: &[Image], truth: &[Image]) -> Result<ImageError> {
 /// `bcc_pt`: CC vs BCC with projected tetrahedra, and empty-space skipping.
 pub fn pt_table(quick: bool, dir: &Path) -> Result<(Table, Vec<PathBuf>)> {
     let sz = sizes(quick);
-    let mut t = Table {
-        columns: [
+    let mut t = table(
+        &[
             "lattice",
             "field",
             "tf",
@@ -299,18 +293,9 @@ pub fn pt_table(quick: bool, dir: &Path) -> Result<(Table, Vec<PathBuf>)> {
             "draw_ms",
             "tets_per_s",
             "bytes_per_tet",
-        ]
-        .iter()
-        .chain(ERR_COLS.iter())
-        .map(|s| s.to_string())
-        .collect(),
-        ..Default::default()
-    };
-    t.hardware = t
-        .columns
-        .iter()
-        .map(|c| matches!(c.as_str(), "time_ms" | "sort_ms" | "draw_ms" | "tets_per_s"))
-        .collect();
+        ],
+        &["time_ms", "sort_ms", "draw_ms", "tets_per_s"],
+    );
     let mut pts = Vec::new();
     let mut summary: Vec<(String, String, f64, f64)> = Vec::new();
     let mut skip_notes = Vec::new();
@@ -433,22 +418,17 @@ pub fn pt_table(quick: bool, dir: &Path) -> Result<(Table, Vec<PathBuf>)> {
 /// `bcc_reconstruction`: ray casting per reconstruction scheme.
 pub fn recon_table(quick: bool, dir: &Path) -> Result<(Table, Vec<PathBuf>)> {
     let sz = sizes(quick);
-    let mut t = Table {
-        columns: [
+    let mut t = table(
+        &[
             "scheme",
             "lattice",
             "field",
             "samples",
             "time_ms",
             "paper_fig9_rank",
-        ]
-        .iter()
-        .chain(ERR_COLS.iter())
-        .map(|s| s.to_string())
-        .collect(),
-        ..Default::default()
-    };
-    t.hardware = t.columns.iter().map(|c| c == "time_ms").collect();
+        ],
+        &["time_ms"],
+    );
     let o = DVec3::splat(-1.0);
     let bbox = Aabb {
         min: o,

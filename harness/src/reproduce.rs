@@ -80,6 +80,19 @@ pub fn write_table(t: &Table, dir: &Path, machine: &str, date: &str) -> Result<(
     std::fs::write(&mdp, md).map_err(|e| Error::io(&mdp, e))
 }
 
+/// Links each PNG plot from the table's notes.
+fn plot_notes(table: &mut Table, plots: &[PathBuf]) {
+    for p in plots {
+        if p.extension().is_some_and(|e| e == "png") {
+            if let Some(n) = p.file_name() {
+                table
+                    .notes
+                    .push(format!("Plot: ![{0}]({0})", n.to_string_lossy()));
+            }
+        }
+    }
+}
+
 /// What a spec is built with.
 pub struct Ctx {
     pub quick: bool,
@@ -1251,15 +1264,7 @@ pub fn run(quick: bool, out: &Path, only: &[String]) -> Result<()> {
             spec.id
         ));
         let plots = (spec.plots)(&o, out)?;
-        for p in &plots {
-            if p.extension().is_some_and(|e| e == "png") {
-                if let Some(n) = p.file_name() {
-                    table
-                        .notes
-                        .push(format!("Plot: ![{0}]({0})", n.to_string_lossy()));
-                }
-            }
-        }
+        plot_notes(&mut table, &plots);
         write_table(&table, out, &machine, &date)?;
         println!(
             "table: {} ({} rows, {secs:.0} s)",
@@ -1318,15 +1323,7 @@ pub fn run(quick: bool, out: &Path, only: &[String]) -> Result<()> {
         table
             .notes
             .push(format!("This table took {secs:.0} s to measure."));
-        for p in &plots {
-            if p.extension().is_some_and(|e| e == "png") {
-                if let Some(n) = p.file_name() {
-                    table
-                        .notes
-                        .push(format!("Plot: ![{0}]({0})", n.to_string_lossy()));
-                }
-            }
-        }
+        plot_notes(&mut table, &plots);
         write_table(&table, out, &machine, &date)?;
         println!(
             "table: {} ({} rows, {secs:.0} s)",

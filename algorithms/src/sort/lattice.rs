@@ -168,11 +168,35 @@ fn centroid(l: &Lattice, mesh: &Mesh, t: usize, corner: [usize; 3]) -> [f64; 3] 
     std::array::from_fn(|a| c[a] - corner[a] as f64)
 }
 
-/// The three axes by decreasing `|g_a|` (ties by axis) and the far-side signs.
-fn nesting(g: [f64; 3]) -> ([usize; 3], [bool; 3]) {
-    let mut axes = [0, 1, 2];
-    axes.sort_by(|&a, &b| g[b].abs().total_cmp(&g[a].abs()).then(a.cmp(&b)));
-    (axes, g.map(|x| x >= 0.0))
+/// The traversal for one view: the ray direction `g` in lattice space, the loop axes by
+/// decreasing `|g_a|` (ties by axis, outermost first) and the far side per axis (`pos[a]`:
+/// the larger coordinate is farther).
+#[derive(Clone, Copy, Debug)]
+struct Traversal {
+    g: [f64; 3],
+    axes: [usize; 3],
+    pos: [bool; 3],
+}
+
+impl Traversal {
+    fn new(g: [f64; 3]) -> Traversal {
+        let mut axes = [0, 1, 2];
+        axes.sort_by(|&a, &b| g[b].abs().total_cmp(&g[a].abs()).then(a.cmp(&b)));
+        Traversal {
+            g,
+            axes,
+            pos: g.map(|x| x >= 0.0),
+        }
+    }
+}
+
+/// The two axes other than `a`, in increasing order.
+fn others(a: usize) -> (usize, usize) {
+    match a {
+        0 => (1, 2),
+        1 => (0, 2),
+        _ => (0, 1),
+    }
 }
 
 /// Entries sorted farthest first by `g · c` (ties by position in the list).
@@ -280,13 +304,13 @@ impl Sort for LatticeSort {
         let f = camera.forward;
         // The ray direction in lattice space, f / h.
         let g = (f / l.spacing).to_array();
-        let (axes, pos) = nesting(g);
+        let tr = Traversal::new(g);
         order.clear();
         order.reserve(l.num_tets());
         let vis = if self.skip { self.vis.as_ref() } else { None };
         match l.kind {
-            LatticeKind::Bcc => self.traverse_bcc(&l, g, axes, pos, vis, order),
-            _ => self.traverse_cc(&l, g, axes, pos, vis, order),
+            LatticeKind::Bcc => self.traverse_bcc(&l, tr, vis, order),
+            _ => self.traverse_cc(&l, tr, vis, order),
         }
         if vis.is_none() && order.len() != l.num_tets() {
             return Err(Error::Internal(format!(
@@ -311,16 +335,16 @@ fn far_to_near(len: usize, ascending: bool) -> impl Iterator<Item = usize> {
     a.into_iter().flatten().chain(b.into_iter().flatten())
 }
 
-/// Calls `visit(point)` for every step point in traversal order: loops nested as `axes`
-/// (outermost first), each axis far to near (`pos[a]`: far is the larger coordinate). With
+/// Calls `visit(point)` for every step point in traversal order: loops nested as `tr.axes`
+/// (outermost first), each axis far to near (`tr.pos[a]`: far is the larger coordinate). With
 /// `runs`, only the points listed there for the innermost axis.
 fn traverse(
     steps: [usize; 3],
-    axes: [usize; 3],
-    pos: [bool; 3],
+    tr: Traversal,
     runs: Option<&[(Vec<u32>, Vec<u32>); 3]>,
     mut visit: impl FnMut([usize; 3]),
 ) {
+    let Traversal { axes, pos, .. } = tr;
     let [a0, a1, a2] = axes;
     if steps.contains(&0) {
         return;
@@ -358,24 +382,13 @@ fn traverse(
 
 /// Index of the scanline along `axis` through `q`.
 fn scanline(steps: [usize; 3], axis: usize, q: [usize; 3]) -> usize {
-    let (b, c) = match axis {
-        0 => (1, 2),
-        1 => (0, 2),
-        _ => (0, 1),
-    };
+    let (b, c) = others(axis);
     q[b] + steps[b] * q[c]
 }
 
 impl LatticeSort {
-    fn traverse_bcc(
-        &self,
-        l: &Lattice,
-        g: [f64; 3],
-        axes: [usize; 3],
-        pos: [bool; 3],
-        vis: Option<&Skip>,
-        order: &mut Vec<u32>,
-    ) {
+    fn traverse_bcc(&self, l: &Lattice, tr: Traversal, vis: Option<&Skip>, order: &mut Vec<u32>) {
+        let Traversal { g, pos, .. } = tr;
         let n = l.n;
         let entries = &self.entries[0];
         // The step owns the edge towards the far side: `q → q + e_a` (σ_a = +) or
@@ -404,7 +417,7 @@ impl LatticeSort {
             })
             .collect();
         let masks = vis.map(|v| v.mask.as_slice());
-        traverse(n, axes, pos, vis.map(|v| &v.runs), |q| {
+        traverse(n, tr, vis.map(|v| &v.runs), |q| {
             let bits = masks.map_or(u32::MAX, |m| m[q[0] + n[0] * (q[1] + n[1] * q[2])]);
             for &(a, off, stride, bit) in &plan {
                 if bits & bit == 0 {
@@ -427,15 +440,8 @@ impl LatticeSort {
         });
     }
 
-    fn traverse_cc(
-        &self,
-        l: &Lattice,
-        g: [f64; 3],
-        axes: [usize; 3],
-        pos: [bool; 3],
-        vis: Option<&Skip>,
-        order: &mut Vec<u32>,
-    ) {
+    fn traverse_cc(&self, l: &Lattice, tr: Traversal, vis: Option<&Skip>, order: &mut Vec<u32>) {
+        let g = tr.g;
         let per = if l.kind == LatticeKind::Cc5 { 5 } else { 6 };
         let tables = [
             step_table(&self.entries[0], g, |_| [0.0; 3]),
@@ -445,7 +451,7 @@ impl LatticeSort {
             std::array::from_fn(|p| tables[p].iter().map(|&i| self.entries[p][i].sub).collect());
         let c = self.steps;
         let masks = vis.map(|v| v.mask.as_slice());
-        traverse(c, axes, pos, vis.map(|v| &v.runs), |q| {
+        traverse(c, tr, vis.map(|v| &v.runs), |q| {
             let cell = q[0] + c[0] * (q[1] + c[1] * q[2]);
             let bits = masks.map_or(u32::MAX, |m| m[cell]);
             // cc6 uses one pattern; cc5 alternates with the parity of i + j + k.
@@ -527,11 +533,7 @@ fn build_skip(l: &Lattice, steps: [usize; 3], visible: &[bool]) -> Skip {
         }
     }
     let runs = std::array::from_fn(|a| {
-        let (b, c) = match a {
-            0 => (1, 2),
-            1 => (0, 2),
-            _ => (0, 1),
-        };
+        let (b, c) = others(a);
         let mut offsets = Vec::with_capacity(steps[b] * steps[c] + 1);
         let mut coords = Vec::new();
         offsets.push(0u32);

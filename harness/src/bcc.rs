@@ -105,7 +105,7 @@ fn sizes(quick: bool) -> Sizes {
         } else {
             fibonacci_views(2)
         },
-        repeats: if quick { 1 } else { 3 },
+        repeats: if quick { 1 } else { 5 },
         gt_step: if quick { h / 6.0 } else { h / 10.0 },
         rc_step: h / 2.0,
     }
@@ -198,17 +198,24 @@ struct PtRun {
     skipped: f64,
 }
 
-fn run_pt(mesh: &Mesh, t: &TransferFunction, sort: &str, sz: &Sizes) -> Result<PtRun> {
+/// A renderer prepared for one mesh, transfer function and sort (bytes measured), ready for
+/// [`time_interleaved`].
+fn prepare_pt(
+    renderer: &str,
+    mesh: &Mesh,
+    t: &TransferFunction,
+    sort: Option<&str>,
+) -> Result<(Box<dyn render::Renderer>, PtRun)> {
     let opts = RenderOptions {
-        sort: Some(sort.into()),
+        sort: sort.map(String::from),
         integrator: Some("partial".into()),
     };
     // A throwaway prepare first, so that process-wide tables built once (Ψ) are not counted.
-    render::make("cpu-pt", &opts)?.prepare(mesh, t)?;
-    let mut r = render::make("cpu-pt", &opts)?;
+    render::make(renderer, &opts)?.prepare(mesh, t)?;
+    let mut r = render::make(renderer, &opts)?;
     let (prep, bytes, _) = alloc::measure(|| r.prepare(mesh, t));
     prep?;
-    let mut out = PtRun {
+    let run = PtRun {
         times: Vec::new(),
         sort_ms: Vec::new(),
         draw_ms: Vec::new(),
@@ -216,24 +223,40 @@ fn run_pt(mesh: &Mesh, t: &TransferFunction, sort: &str, sz: &Sizes) -> Result<P
         bytes,
         skipped: 0.0,
     };
+    Ok((r, run))
+}
+
+/// Times every case per view: a warm-up frame each, then `repeats` rounds that render each
+/// case once in turn, so that load from other processes on the machine falls on all cases
+/// alike (the lattices are compared against each other).
+fn time_interleaved(
+    cases: &mut [(Box<dyn render::Renderer>, &Mesh, PtRun)],
+    sz: &Sizes,
+) -> Result<()> {
     for &v in &sz.views {
-        let c = cam(&mesh.bbox(), v, sz.image);
-        // A warm-up frame, then the timed repeats.
-        let mut frame = r.render(mesh, &c)?;
-        for _ in 0..sz.repeats {
-            frame = r.render(mesh, &c)?;
-            out.times.push(frame.times.total_ms);
-            out.sort_ms.push(frame.times.sort_ms);
-            out.draw_ms.push(frame.times.draw_ms);
+        let mut last = Vec::new();
+        for (r, mesh, _) in cases.iter_mut() {
+            last.push(r.render(mesh, &cam(&mesh.bbox(), v, sz.image))?);
         }
-        out.skipped = frame
-            .counters
-            .iter()
-            .find(|c| c.0 == "tets_skipped")
-            .map_or(0.0, |c| c.1);
-        out.images.push(frame.image);
+        for _ in 0..sz.repeats {
+            for (k, (r, mesh, run)) in cases.iter_mut().enumerate() {
+                let frame = r.render(mesh, &cam(&mesh.bbox(), v, sz.image))?;
+                run.times.push(frame.times.total_ms);
+                run.sort_ms.push(frame.times.sort_ms);
+                run.draw_ms.push(frame.times.draw_ms);
+                last[k] = frame;
+            }
+        }
+        for ((_, _, run), frame) in cases.iter_mut().zip(last) {
+            run.skipped = frame
+                .counters
+                .iter()
+                .find(|c| c.0 == "tets_skipped")
+                .map_or(0.0, |c| c.1);
+            run.images.push(frame.image);
+        }
     }
-    Ok(out)
+    Ok(())
 }
 
 /// The analytic ground truth for `mesh` (its own bbox, L and domain) in each view.
@@ -276,6 +299,14 @@ fn errors(images: &[Image], truth: &[Image]) -> Result<ImageError> {
     Ok(mean_err(&e))
 }
 
+/// `sort` if `renderer` takes it, else its default.
+fn sort_for(renderer: &str, sort: &'static str) -> Option<&'static str> {
+    render::info(renderer)
+        .ok()
+        .filter(|i| i.sorts.contains(&sort))
+        .map(|_| sort)
+}
+
 /// `bcc_pt`: CC vs BCC with projected tetrahedra, and empty-space skipping.
 pub fn pt_table(quick: bool, dir: &Path) -> Result<(Table, Vec<PathBuf>)> {
     let sz = sizes(quick);
@@ -283,6 +314,7 @@ pub fn pt_table(quick: bool, dir: &Path) -> Result<(Table, Vec<PathBuf>)> {
         &[
             "lattice",
             "field",
+            "renderer",
             "tf",
             "sort",
             "samples",
@@ -301,31 +333,50 @@ pub fn pt_table(quick: bool, dir: &Path) -> Result<(Table, Vec<PathBuf>)> {
     let mut skip_notes = Vec::new();
     let dense = dense_tf();
     let sparse = sparse_tf();
+    let renderers: Vec<&str> = ["cpu-pt", "hapt"]
+        .into_iter()
+        .filter(|r| render::info(r).is_ok())
+        .collect();
     for (fname, f) in FIELDS {
-        for (lname, mesh, dom) in meshes(&sz, f)? {
-            let mut cases = vec![(&dense, "bcc-implicit")];
-            if fname == "shell" {
-                cases.push((&sparse, "bcc-implicit"));
-                cases.push((&sparse, "bcc-implicit-skip"));
+        let lattices = meshes(&sz, f)?;
+        // cpu-pt, and hapt when it is registered (with bcc-implicit if it takes it); on the
+        // shell also the sparse TF without and with skipping.
+        let mut specs: Vec<(usize, &str, &TransferFunction, Option<&str>)> = Vec::new();
+        for m in 0..lattices.len() {
+            for &r in &renderers {
+                specs.push((m, r, &dense, sort_for(r, "bcc-implicit")));
             }
-            let mut noskip: Option<(Vec<Image>, f64)> = None;
-            let mut gt_sparse: Option<Vec<Image>> = None;
-            for (tfn, sort) in cases {
-                let run = run_pt(&mesh, tfn, sort, &sz)?;
-                let gt = if tfn.name == "sparse" {
-                    if gt_sparse.is_none() {
-                        gt_sparse = Some(truth(&mesh, f, dom, tfn, &sz)?);
-                    }
-                    gt_sparse.clone().expect("set")
-                } else {
-                    truth(&mesh, f, dom, tfn, &sz)?
-                };
-                let e = errors(&run.images, &gt)?;
+            if fname == "shell" {
+                specs.push((m, "cpu-pt", &sparse, Some("bcc-implicit")));
+                specs.push((m, "cpu-pt", &sparse, Some("bcc-implicit-skip")));
+            }
+        }
+        let mut cases = Vec::new();
+        for &(m, r, tfn, sort) in &specs {
+            let (rend, run) = prepare_pt(r, &lattices[m].1, tfn, sort)?;
+            cases.push((rend, &lattices[m].1, run));
+        }
+        time_interleaved(&mut cases, &sz)?;
+        let runs: Vec<PtRun> = cases.into_iter().map(|c| c.2).collect();
+        // Ground truths per (mesh, transfer function), computed once.
+        let mut gts: Vec<((usize, String), Vec<Image>)> = Vec::new();
+        let mut noskip: Option<(Vec<Image>, f64)> = None;
+        for (&(m, rname, tfn, sort), run) in specs.iter().zip(&runs) {
+            let (lname, mesh, dom) = (&lattices[m].0, &lattices[m].1, lattices[m].2);
+            let key = (m, tfn.name.clone());
+            if !gts.iter().any(|g| g.0 == key) {
+                gts.push((key.clone(), truth(mesh, f, dom, tfn, &sz)?));
+            }
+            let gt = &gts.iter().find(|g| g.0 == key).expect("computed").1;
+            let sort = sort.unwrap_or("default");
+            {
+                let e = errors(&run.images, gt)?;
                 let time = median(run.times.clone());
                 let ntets = mesh.num_tets() as f64;
                 let mut row = vec![
                     lname.to_string(),
                     fname.to_string(),
+                    rname.to_string(),
                     tfn.name.clone(),
                     sort.to_string(),
                     mesh.num_vertices().to_string(),
@@ -340,17 +391,25 @@ pub fn pt_table(quick: bool, dir: &Path) -> Result<(Table, Vec<PathBuf>)> {
                 row.extend(err_cols(&e));
                 t.rows.push(row);
                 if tfn.name == "default" {
+                    let who = if rname == "cpu-pt" {
+                        String::new()
+                    } else {
+                        format!(" {rname}")
+                    };
                     pts.push(TimeError {
-                        label: format!("{lname} {fname}"),
+                        label: format!("{lname} {fname}{who}"),
                         rmse: e.rmse,
                         time_ms: time,
                     });
-                    summary.push((lname.to_string(), fname.to_string(), time, e.rmse));
+                    if rname == "cpu-pt" {
+                        summary.push((lname.to_string(), fname.to_string(), time, e.rmse));
+                    }
                 }
                 if tfn.name == "sparse" {
-                    match (&noskip, sort) {
-                        (None, _) => noskip = Some((run.images.clone(), time)),
-                        (Some((imgs, t0)), _) => {
+                    // Per mesh: the run without skipping comes first, then the one with.
+                    match noskip.take() {
+                        None => noskip = Some((run.images.clone(), time)),
+                        Some((imgs, t0)) => {
                             let same = imgs
                                 .iter()
                                 .zip(&run.images)
@@ -374,7 +433,7 @@ pub fn pt_table(quick: bool, dir: &Path) -> Result<(Table, Vec<PathBuf>)> {
         m = sz.bcc_n - 1
     ));
     t.notes.push(format!(
-        "cpu-pt, integrator partial, sort bcc-implicit (the lattice traversal, for CC and BCC alike), {}² orthographic, {} view(s) {}, median of {} frames after a warm-up; bytes_per_tet = heap bytes cpu-pt's prepare retains (counting allocator) / tets.",
+        "cpu-pt (and hapt when registered; not yet), integrator partial, sort bcc-implicit (the lattice traversal, for CC and BCC alike), {}² orthographic, {} view(s) {}, median of {} frames after a warm-up, the cases of one field rendered in turn (interleaved, so that load from other processes falls on all alike); bytes_per_tet = heap bytes cpu-pt's prepare retains (counting allocator) / tets.",
         sz.image,
         sz.views.len(),
         sz.views

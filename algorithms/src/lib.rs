@@ -2,12 +2,14 @@
 //! visibility sorts and the renderers, shared by the `tetbench` harness and `datasets-gen`.
 
 pub mod alloc;
+pub mod bcc_recon;
 pub mod camera;
 pub mod error;
 pub mod gpu;
 pub mod image;
 pub mod io;
 pub mod jbu;
+pub mod lattice;
 pub mod mesh;
 pub mod metrics;
 pub mod optics;

@@ -3,6 +3,9 @@
 //! the body-centred cubic lattice (`bcc`).
 
 use algorithms::io::split::{hex_corner, hex_split_pattern};
+/// The lattice description and BCC tet numbering live in `algorithms` (the lattice sorts read
+/// them); re-exported here, where the lattices are built.
+pub use algorithms::lattice::{bcc_num_tets, bcc_tet_index, Lattice, LatticeKind, LATTICE_KEY};
 use algorithms::mesh::signed_volume6;
 use glam::DVec3;
 use rayon::prelude::*;
@@ -209,81 +212,6 @@ pub fn orient_majority(positions: &[DVec3], tets: &mut [[u32; 4]]) {
     }
 }
 
-/// A lattice kind as stored in `field_data["lattice"][0]`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum LatticeKind {
-    Cc5 = 0,
-    Cc6 = 1,
-    Bcc = 2,
-}
-
-/// The description of a lattice mesh that travels with it in `mesh.field_data["lattice"]` as
-/// `[kind, nx, ny, nz, ox, oy, oz, hx, hy, hz]` (see the crate docs for the vertex and tet
-/// order this implies).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Lattice {
-    pub kind: LatticeKind,
-    /// Grid points per axis (for `bcc`, of the primary grid).
-    pub n: [usize; 3],
-    /// Position of grid point (0, 0, 0).
-    pub origin: DVec3,
-    /// Distance between neighbouring grid points along each axis.
-    pub spacing: DVec3,
-}
-
-/// The `field_data` key of the lattice description.
-pub const LATTICE_KEY: &str = "lattice";
-
-impl Lattice {
-    pub fn to_field_data(&self) -> Vec<f64> {
-        vec![
-            self.kind as u8 as f64,
-            self.n[0] as f64,
-            self.n[1] as f64,
-            self.n[2] as f64,
-            self.origin.x,
-            self.origin.y,
-            self.origin.z,
-            self.spacing.x,
-            self.spacing.y,
-            self.spacing.z,
-        ]
-    }
-
-    /// Reads the description back; `None` if `v` is not one.
-    pub fn from_field_data(v: &[f64]) -> Option<Lattice> {
-        if v.len() != 10 {
-            return None;
-        }
-        if v[0].fract() != 0.0 {
-            return None;
-        }
-        let kind = match v[0] as i64 {
-            0 => LatticeKind::Cc5,
-            1 => LatticeKind::Cc6,
-            2 => LatticeKind::Bcc,
-            _ => return None,
-        };
-        let count = |x: f64| (x >= 1.0 && x.fract() == 0.0).then_some(x as usize);
-        Some(Lattice {
-            kind,
-            n: [count(v[1])?, count(v[2])?, count(v[3])?],
-            origin: DVec3::new(v[4], v[5], v[6]),
-            spacing: DVec3::new(v[7], v[8], v[9]),
-        })
-    }
-
-    /// Number of tets this lattice has.
-    pub fn num_tets(&self) -> usize {
-        let [nx, ny, nz] = self.n;
-        match self.kind {
-            LatticeKind::Cc5 => 5 * (nx - 1) * (ny - 1) * (nz - 1),
-            LatticeKind::Cc6 => 6 * (nx - 1) * (ny - 1) * (nz - 1),
-            LatticeKind::Bcc => bcc_num_tets(self.n),
-        }
-    }
-}
-
 /// A cube lattice of `cells` cells over the box `origin + [0, cells·spacing]`: vertex
 /// `i + nx (j + ny k)` at `origin + spacing·(i, j, k)` (`n = cells + 1`), tets of cell
 /// `c = i + cx (j + cy k)` at `per_cell·c .. per_cell·(c + 1)`.
@@ -308,12 +236,6 @@ pub fn cc_lattice(
         spacing,
     };
     (built, lattice)
-}
-
-/// Tets of a BCC lattice with `n` primary points per axis: 4 per primary edge.
-pub fn bcc_num_tets(n: [usize; 3]) -> usize {
-    let [nx, ny, nz] = n;
-    4 * ((nx - 1) * ny * nz + nx * (ny - 1) * nz + nx * ny * (nz - 1))
 }
 
 /// Boundary faces of a BCC lattice with `n` primary points per axis, counted from the
@@ -348,24 +270,6 @@ pub fn bcc_boundary_faces(n: [usize; 3]) -> usize {
         }
     }
     count
-}
-
-/// Index of the tet of a BCC lattice with `n` primary points per axis that lies on the primary
-/// edge from point `q` to `q + e_axis`, with secondary edge `sub` (0..4, see the crate docs);
-/// `None` when that edge leaves the lattice.
-pub fn bcc_tet_index(n: [usize; 3], q: [usize; 3], axis: usize, sub: usize) -> Option<usize> {
-    if q[axis] + 1 >= n[axis] || sub >= 4 || (0..3).any(|a| q[a] >= n[a]) {
-        return None;
-    }
-    let mut m = n;
-    m[axis] -= 1;
-    let mut offset = 0;
-    for a in 0..axis {
-        let mut ma = n;
-        ma[a] -= 1;
-        offset += 4 * ma[0] * ma[1] * ma[2];
-    }
-    Some(offset + 4 * (q[0] + m[0] * (q[1] + m[1] * q[2])) + sub)
 }
 
 /// The BCC lattice as a tetrahedral mesh (the Delaunay tetrahedralization of the body-centred

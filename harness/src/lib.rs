@@ -1,5 +1,6 @@
 //! The `tetbench` harness as a library: the CLI definitions and the commands behind them.
 
+pub mod bcc;
 pub mod bench;
 pub mod cli;
 pub mod commands;

@@ -585,3 +585,67 @@ mod tests {
         assert!((b - 2.0).abs() < 1e-12 && (a - 1.0).abs() < 1e-12);
     }
 }
+
+/// One labelled point of [`time_vs_error`].
+#[derive(Clone, Debug)]
+pub struct TimeError {
+    pub label: String,
+    pub rmse: f64,
+    pub time_ms: f64,
+}
+
+/// Time against error (log x), one labelled point each: the BCC tables (CC vs BCC per lattice
+/// and field; reconstruction schemes per field, the paper's Fig. 9 with errors added).
+pub fn time_vs_error(pts: &[TimeError], stem: &Path, title: &str) -> Result<Vec<PathBuf>> {
+    if pts.is_empty() {
+        return Ok(Vec::new());
+    }
+    Ok(draw_both!(stem, draw_time_error, pts, title))
+}
+
+fn draw_time_error<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    pts: &[TimeError],
+    title: &str,
+) -> PResult
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE)?;
+    let floor = 1e-6;
+    let xs: Vec<f64> = pts.iter().map(|p| p.rmse.max(floor)).collect();
+    let x0 = xs.iter().cloned().fold(f64::INFINITY, f64::min) / 1.5;
+    let x1 = xs.iter().cloned().fold(0.0, f64::max) * 1.5;
+    let y1 = pts.iter().map(|p| p.time_ms).fold(0.0, f64::max) * 1.15 + 1e-9;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 24))
+        .margin(15)
+        .x_label_area_size(50)
+        .y_label_area_size(70)
+        .build_cartesian_2d((x0..x1).log_scale(), 0.0..y1)?;
+    chart
+        .configure_mesh()
+        .x_desc("RMSE against the analytic ground truth")
+        .y_desc("time per frame (ms, median)")
+        .x_label_formatter(&|v| format!("{v:.1e}"))
+        .draw()?;
+    for (i, p) in pts.iter().enumerate() {
+        let c = color(i);
+        chart
+            .draw_series(std::iter::once(Circle::new(
+                (xs[i], p.time_ms),
+                6,
+                c.filled(),
+            )))?
+            .label(p.label.clone())
+            .legend(move |(x, y)| Circle::new((x + 10, y), 5, c.filled()));
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::LowerRight)
+        .draw()?;
+    root.present()?;
+    Ok(())
+}

@@ -12,6 +12,7 @@ use std::time::Instant;
 use algorithms::render;
 use algorithms::{Error, Result};
 
+use crate::bcc;
 use crate::bench::{self, Outcome, Row};
 use crate::experiment::{
     self, Config, DatasetSpec, OneOrMany, PairSpec, RendererSpec, RotateSpec, ViewsSpec,
@@ -77,6 +78,19 @@ pub fn write_table(t: &Table, dir: &Path, machine: &str, date: &str) -> Result<(
     }
     let mdp = dir.join(format!("{}.md", t.id));
     std::fs::write(&mdp, md).map_err(|e| Error::io(&mdp, e))
+}
+
+/// Links each PNG plot from the table's notes.
+fn plot_notes(table: &mut Table, plots: &[PathBuf]) {
+    for p in plots {
+        if p.extension().is_some_and(|e| e == "png") {
+            if let Some(n) = p.file_name() {
+                table
+                    .notes
+                    .push(format!("Plot: ![{0}]({0})", n.to_string_lossy()));
+            }
+        }
+    }
 }
 
 /// What a spec is built with.
@@ -1243,10 +1257,12 @@ pub fn run(quick: bool, out: &Path, only: &[String]) -> Result<()> {
     let ctx = Ctx { quick };
     let all = specs();
     for o in only {
-        if o != JBU_ID && !all.iter().any(|s| s.id == o) {
+        if o != JBU_ID && o != bcc::PT_ID && o != bcc::RECON_ID && !all.iter().any(|s| s.id == o) {
             return Err(Error::Input(format!(
-                "--only {o}: no such table (tables: {}, {JBU_ID})",
-                all.iter().map(|s| s.id).collect::<Vec<_>>().join(", ")
+                "--only {o}: no such table (tables: {}, {JBU_ID}, {}, {})",
+                all.iter().map(|s| s.id).collect::<Vec<_>>().join(", "),
+                bcc::PT_ID,
+                bcc::RECON_ID
             )));
         }
     }
@@ -1296,15 +1312,7 @@ pub fn run(quick: bool, out: &Path, only: &[String]) -> Result<()> {
             spec.id
         ));
         let plots = (spec.plots)(&o, out)?;
-        for p in &plots {
-            if p.extension().is_some_and(|e| e == "png") {
-                if let Some(n) = p.file_name() {
-                    table
-                        .notes
-                        .push(format!("Plot: ![{0}]({0})", n.to_string_lossy()));
-                }
-            }
-        }
+        plot_notes(&mut table, &plots);
         write_table(&table, out, &machine, &date)?;
         println!(
             "table: {} ({} rows, {secs:.0} s)",
@@ -1342,6 +1350,46 @@ pub fn run(quick: bool, out: &Path, only: &[String]) -> Result<()> {
                 if quick { ", --quick" } else { "" }
             ),
         )?;
+    }
+    // The BCC paper's comparisons (issue 9): their own experiments (analytic fields and ground
+    // truth, regular-volume ray casting), laid out as tables like the others.
+    type BccTable = fn(bool, &Path) -> Result<(Table, Vec<PathBuf>)>;
+    let bcc_tables: [(&str, &str, BccTable); 2] = [
+        (
+            bcc::PT_ID,
+            "BCC paper §4 / Fig. 10: CC vs BCC at equal information with projected tetrahedra (cpu-pt, bcc-implicit), and empty-space skipping",
+            bcc::pt_table,
+        ),
+        (
+            bcc::RECON_ID,
+            "BCC paper §3 / Fig. 9: ray casting with trilinear on CC and bil, bilspat, bary, shtril on BCC, time and error",
+            bcc::recon_table,
+        ),
+    ];
+    for (id, title, build) in bcc_tables {
+        if !(only.is_empty() || only.iter().any(|o| o == id)) {
+            continue;
+        }
+        let t0 = Instant::now();
+        let (mut table, plots) = build(quick, out)?;
+        table.id = id.to_string();
+        table.title = title.to_string();
+        let secs = t0.elapsed().as_secs_f64();
+        table
+            .notes
+            .push(format!("This table took {secs:.0} s to measure."));
+        plot_notes(&mut table, &plots);
+        write_table(&table, out, &machine, &date)?;
+        println!(
+            "table: {} ({} rows, {secs:.0} s)",
+            out.join(format!("{id}.md")).display(),
+            table.rows.len()
+        );
+        let _ = writeln!(
+            readme,
+            "| [{id}]({id}.md) | {title} | {} rows, {secs:.0} s |",
+            table.rows.len()
+        );
     }
     let total = started.elapsed().as_secs_f64();
 

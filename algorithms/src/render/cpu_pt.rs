@@ -201,6 +201,7 @@ impl Renderer for CpuPt {
             tets: mesh.num_tets(),
         });
         self.sort.prepare(mesh)?;
+        self.sort.set_transfer_function(mesh, tf)?;
         Ok(())
     }
 
@@ -364,6 +365,7 @@ impl Renderer for CpuPt {
         }
         let draw_ms = ms_since(t2);
         let scratch_bytes = sc.bytes();
+        let skipped = mesh.num_tets() - sc.order.len();
         self.scratch = sc;
         Ok(Frame {
             image,
@@ -377,6 +379,8 @@ impl Renderer for CpuPt {
             counters: vec![
                 ("tets_drawn", drawn as f64),
                 ("tets_discarded", (mesh.num_tets() - drawn) as f64),
+                // Left out of the order by a skipping sort (transparent under the TF).
+                ("tets_skipped", skipped as f64),
                 ("fragments", fragments as f64),
                 ("tet_tile_pairs", pairs as f64),
                 ("bin_ms", bin_ms),

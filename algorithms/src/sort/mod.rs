@@ -10,6 +10,8 @@
 //! | `centroid-radix` | the same order, stable LSD radix sort on the keys' bits | O(n) |
 //! | `bucket[:N]` | PTINT's N depth slabs (default 20), index order inside a slab | O(n) |
 //! | `mpvonc` | Williams' MPVONC: topological sort of the face-adjacency DAG | O(n) |
+//! | `bcc-implicit` | lattice meshes only (`bcc`, `cc5`, `cc6`), ortho: back-to-front traversal of the lattice, no sort ([`lattice`]) | O(n) |
+//! | `bcc-implicit-skip` | the same, leaving out tets transparent under the transfer function (empty-space skipping) | O(visible) |
 //!
 //! **Centroid keys.** Centroids are computed once, in f64 in the frame centred on the bounding-box
 //! centre (CONVENTIONS §1), and stored as f32 (12 bytes per tet). Per frame the key is computed
@@ -21,15 +23,18 @@
 
 use crate::camera::{Camera, Projection};
 use crate::error::{Error, Result};
-use crate::mesh::Mesh;
+use crate::mesh::{Mesh, BOUNDARY};
+use crate::tf::TransferFunction;
 
 mod bucket;
 mod centroid;
+pub mod lattice;
 mod mpvonc;
 mod radix;
 
 pub use bucket::BucketSort;
 pub use centroid::CentroidSort;
+pub use lattice::LatticeSort;
 pub use mpvonc::Mpvonc;
 pub use radix::RadixSort;
 
@@ -56,8 +61,16 @@ pub trait Sort: Send {
     fn name(&self) -> String;
     /// Per-mesh precomputation (centroids in the centred frame, adjacency, …), done once.
     fn prepare(&mut self, mesh: &Mesh) -> Result<()>;
+    /// Hands the sort the transfer function the renderer draws with; called after `prepare`
+    /// and again whenever the transfer function changes. A skipping sort
+    /// (`bcc-implicit-skip`) rebuilds its visibility structure here; the others ignore it.
+    fn set_transfer_function(&mut self, _mesh: &Mesh, _tf: &TransferFunction) -> Result<()> {
+        Ok(())
+    }
     /// Back-to-front visibility order for this camera: `order` receives every tet index exactly
-    /// once, farthest first. `prepare` must have been called with this mesh.
+    /// once, farthest first — except that a skipping sort, once given a transfer function,
+    /// leaves out the tets that are transparent under it (τ = 0 over the tet's whole scalar
+    /// interval: they add nothing to any pixel). `prepare` must have been called with this mesh.
     fn sort(&mut self, mesh: &Mesh, camera: &Camera, order: &mut Vec<u32>) -> Result<SortStats>;
 }
 
@@ -68,6 +81,8 @@ pub const SORTS: &[&str] = &[
     "centroid-radix",
     "bucket",
     "mpvonc",
+    "bcc-implicit",
+    "bcc-implicit-skip",
 ];
 
 /// Default slab count of `bucket` (PTINT: "around 20").
@@ -96,6 +111,8 @@ pub fn make(name: &str) -> Result<Box<dyn Sort>> {
         "centroid-radix" => Box::new(RadixSort::default()),
         "bucket" => Box::new(BucketSort::new(DEFAULT_SLABS)),
         "mpvonc" => Box::new(Mpvonc::default()),
+        "bcc-implicit" => Box::new(LatticeSort::new(false)),
+        "bcc-implicit-skip" => Box::new(LatticeSort::new(true)),
         _ => {
             return Err(Error::Input(format!(
                 "unknown sort '{name}' (known: {}; bucket:N for N slabs)",
@@ -183,6 +200,50 @@ pub(crate) fn check_prepared(name: &str, prepared: usize, mesh: &Mesh) -> Result
         )));
     }
     Ok(())
+}
+
+/// Interior faces whose constraint `order` breaks: the tet on the far side of a face from the
+/// eye must come first. Faces with the eye within `tol`·L of their plane (ortho: |cos| < tol)
+/// are skipped (a sort's test: 0 on a convex mesh means a visibility order). Geometry in f64, normals oriented away from the tet's opposite vertex.
+pub fn face_violations(mesh: &Mesh, cam: &Camera, order: &[u32], tol: f64) -> usize {
+    let mut pos = vec![0usize; order.len()];
+    for (i, &t) in order.iter().enumerate() {
+        pos[t as usize] = i;
+    }
+    let c = mesh.bbox().center();
+    let l = mesh.diagonal();
+    let mut bad = 0;
+    for t in 0..mesh.num_tets() {
+        for f in 0..4 {
+            let nb = mesh.neighbor(t, f);
+            if nb == BOUNDARY || (nb as usize) < t {
+                continue;
+            }
+            let [v0, v1, v2] = mesh
+                .face_vertices(t, f)
+                .map(|v| mesh.positions()[v as usize] - c);
+            let opp = mesh.positions()[mesh.tets()[t][f] as usize] - c;
+            let mut n = (v1 - v0).cross(v2 - v0).normalize();
+            if n.dot(opp - v0) > 0.0 {
+                n = -n;
+            }
+            let s = match cam.projection {
+                Projection::Ortho => n.dot(cam.to_eye),
+                Projection::Persp => n.dot(cam.eye() - v0) / l,
+            };
+            let (far, near) = if s > tol {
+                (t, nb as usize)
+            } else if s < -tol {
+                (nb as usize, t)
+            } else {
+                continue;
+            };
+            if pos[far] > pos[near] {
+                bad += 1;
+            }
+        }
+    }
+    bad
 }
 
 #[cfg(test)]

@@ -9,7 +9,6 @@ use super::*;
 use crate::camera::{fibonacci_views, Camera, Projection, View};
 use crate::io::split::{hex_corner, hex_split_pattern};
 use crate::io::Split;
-use crate::mesh::BOUNDARY;
 
 /// A grid of n[0]×n[1]×n[2] unit cubes with corner at the origin, 6 Kuhn tets per cube
 /// (conforming), interior vertices moved by up to ±`jitter` per axis (deterministic), cubes for
@@ -78,50 +77,6 @@ fn assert_permutation(order: &[u32], n: usize, what: &str) {
         assert!(!seen[t as usize], "{what}: tet {t} twice");
         seen[t as usize] = true;
     }
-}
-
-/// Interior faces whose constraint `order` breaks: the tet on the far side of a face from the
-/// eye must come first. Faces with the eye within `tol`·L of their plane (ortho: |cos| < tol)
-/// are skipped. Geometry in f64, normals oriented away from the tet's opposite vertex.
-fn violations(mesh: &Mesh, cam: &Camera, order: &[u32], tol: f64) -> usize {
-    let mut pos = vec![0usize; order.len()];
-    for (i, &t) in order.iter().enumerate() {
-        pos[t as usize] = i;
-    }
-    let c = mesh.bbox().center();
-    let l = mesh.diagonal();
-    let mut bad = 0;
-    for t in 0..mesh.num_tets() {
-        for f in 0..4 {
-            let nb = mesh.neighbor(t, f);
-            if nb == BOUNDARY || (nb as usize) < t {
-                continue;
-            }
-            let [v0, v1, v2] = mesh
-                .face_vertices(t, f)
-                .map(|v| mesh.positions()[v as usize] - c);
-            let opp = mesh.positions()[mesh.tets()[t][f] as usize] - c;
-            let mut n = (v1 - v0).cross(v2 - v0).normalize();
-            if n.dot(opp - v0) > 0.0 {
-                n = -n;
-            }
-            let s = match cam.projection {
-                Projection::Ortho => n.dot(cam.to_eye),
-                Projection::Persp => n.dot(cam.eye() - v0) / l,
-            };
-            let (far, near) = if s > tol {
-                (t, nb as usize)
-            } else if s < -tol {
-                (nb as usize, t)
-            } else {
-                continue;
-            };
-            if pos[far] > pos[near] {
-                bad += 1;
-            }
-        }
-    }
-    bad
 }
 
 fn prepared(name: &str, mesh: &Mesh) -> Box<dyn Sort> {
@@ -350,12 +305,12 @@ fn mpvonc_is_a_visibility_order_on_a_convex_grid() {
             );
             assert!(stats.sources > 0 && stats.edges > 0);
             assert_eq!(
-                violations(&mesh, &cam, &order, 1e-5),
+                face_violations(&mesh, &cam, &order, 1e-5),
                 0,
                 "{view:?} {proj:?}"
             );
             let (c, _) = run(centroid.as_mut(), &mesh, &cam);
-            centroid_bad += violations(&mesh, &cam, &c, 1e-5);
+            centroid_bad += face_violations(&mesh, &cam, &c, 1e-5);
         }
     }
     // The check has teeth: the centroid order breaks some face constraints on this grid.
@@ -374,7 +329,7 @@ fn mpvonc_honours_face_constraints_on_a_non_convex_mesh() {
             let (order, stats) = run(s.as_mut(), &mesh, &cam);
             assert_eq!(stats.cycles, 0);
             assert_eq!(
-                violations(&mesh, &cam, &order, 1e-5),
+                face_violations(&mesh, &cam, &order, 1e-5),
                 0,
                 "{view:?} {proj:?}"
             );
@@ -392,7 +347,7 @@ fn mpvonc_skips_faces_parallel_to_the_view() {
     let (order, stats) = run(s.as_mut(), &mesh, &cam);
     assert!(stats.unconstrained_faces > 0);
     assert_eq!(stats.cycles, 0);
-    assert_eq!(violations(&mesh, &cam, &order, 1e-5), 0);
+    assert_eq!(face_violations(&mesh, &cam, &order, 1e-5), 0);
 }
 
 #[test]

@@ -1208,8 +1208,8 @@ fn about(id: &str) -> &'static str {
         "hapt-table3" => "Sort and draw time per variant on the spx2 analogue: where each algorithm spends its frame (stacked bars), with the error each order costs.",
         "hapt-table4" => "Frame rates per variant on the torso and fighter analogues (1.1M and 1.4M tets).",
         JBU_ID => "Joint bilateral upsampling: time per rendering resolution (JBU Fig. 3/4) and RMSE of bilateral against linear upsampling (Fig. 5), for the ray caster and cpu-pt.",
-        "bcc-pt" | "bcc_pt" => "CC against BCC sampling at equal information, rendered by projected tetrahedra with the implicit BCC order; error against a ground truth integrated from the analytic field.",
-        "bcc-reconstruction" | "bcc_reconstruction" => "Reconstruction schemes for ray casting a regular BCC volume against trilinear on CC: time and error per scheme (BCC paper Fig. 9).",
+        bcc::PT_ID => "CC against BCC sampling at equal information, rendered by projected tetrahedra with the implicit BCC order; error against a ground truth integrated from the analytic field.",
+        bcc::RECON_ID => "Reconstruction schemes for ray casting a regular BCC volume against trilinear on CC: time and error per scheme (BCC paper Fig. 9).",
         _ => "",
     }
 }
@@ -1366,8 +1366,8 @@ pub fn run(quick: bool, out: &Path, only: &[String]) -> Result<()> {
             bcc::recon_table,
         ),
     ];
-    for (id, title, build) in bcc_tables {
-        if !(only.is_empty() || only.iter().any(|o| o == id)) {
+    for &(id, title, build) in &bcc_tables {
+        if !selected(id) {
             continue;
         }
         let t0 = Instant::now();
@@ -1385,11 +1385,15 @@ pub fn run(quick: bool, out: &Path, only: &[String]) -> Result<()> {
             out.join(format!("{id}.md")).display(),
             table.rows.len()
         );
-        let _ = writeln!(
-            readme,
-            "| [{id}]({id}.md) | {title} | {} rows, {secs:.0} s |",
-            table.rows.len()
-        );
+        write_status(
+            out,
+            id,
+            &format!(
+                "[{id}.md]({id}.md), [{id}.csv]({id}.csv): {} rows, {secs:.0} s ({date}{})",
+                table.rows.len(),
+                if quick { ", --quick" } else { "" }
+            ),
+        )?;
     }
     let total = started.elapsed().as_secs_f64();
 
@@ -1416,6 +1420,7 @@ pub fn run(quick: bool, out: &Path, only: &[String]) -> Result<()> {
         .iter()
         .map(|s| (s.id, s.title))
         .chain([(JBU_ID, "JBU Fig. 3/4 and Fig. 5")])
+        .chain(bcc_tables.iter().map(|&(id, title, _)| (id, title)))
         .collect();
     for (id, title) in ids {
         let status = std::fs::read_to_string(status_path(out, id))

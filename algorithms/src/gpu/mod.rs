@@ -23,6 +23,8 @@ use crate::image::Image;
 
 pub use wgpu;
 
+pub mod sort;
+
 /// The device, its queue and what the adapter can do.
 pub struct Gpu {
     pub device: wgpu::Device,

@@ -272,6 +272,7 @@ fn render_cmd(args: &RenderArgs) -> Result<()> {
     let opts = RenderOptions {
         sort: args.sort.clone(),
         integrator: args.integrator.clone(),
+        ..Default::default()
     };
     let mut renderer = render::make(&args.renderer, &opts)?;
     let tf = TransferFunction::load(&args.tf)?;

@@ -495,6 +495,7 @@ pub fn expand_renderer(r: &RendererSpec) -> Result<Vec<Variant>> {
             let options = RenderOptions {
                 sort: s.clone(),
                 integrator: i.clone(),
+                ..Default::default()
             };
             let made = render::make(&r.name, &options)?;
             let sort = made.sort_name();

@@ -7,21 +7,7 @@
 
 @fragment
 fn fs_volume(in: VolumeVarying) -> @location(0) vec4<f32> {
-    var sf: f32;
-    var sb: f32;
-    var l: f32;
-    if view.persp != 0u {
-        let qf = in.a.x;
-        let qb = in.a.y;
-        // in.pos.xy is the pixel centre (i + 0.5, j + 0.5), as cpu_pt's sec θ table.
-        l = in.a.z / (qf * qb) * view_sec(in.pos.xy) * view.inv_l;
-        sf = in.a.w / qf;
-        sb = in.b / qb;
-    } else {
-        sf = in.a.x;
-        sb = in.a.y;
-        l = in.a.z;
-    }
+    let r = volume_ray(in.pos.xy, in.a, in.b);
     // l ≤ 0 (and NaN) gives a zero segment: the blend leaves the pixel as it was.
-    return segment(sf, sb, l);
+    return segment(r.x, r.y, r.z);
 }

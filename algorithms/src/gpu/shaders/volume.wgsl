@@ -52,3 +52,15 @@ fn volume_varying(pix: vec2<f32>, at: VolumeAttr) -> VolumeVarying {
 fn volume_unused() -> VolumeVarying {
     return VolumeVarying(vec4<f32>(-2.0, -2.0, 0.5, 1.0), vec4<f32>(0.0), 0.0);
 }
+
+// The pixel's ray segment (s_f, s_b, l) from the interpolated attributes (a, b) at the fragment
+// position `pos` (the pixel centre (i + 0.5, j + 0.5), as cpu_pt's sec θ table).
+fn volume_ray(pos: vec2<f32>, a: vec4<f32>, b: f32) -> vec3<f32> {
+    if view.persp != 0u {
+        let qf = a.x;
+        let qb = a.y;
+        let l = a.z / (qf * qb) * view_sec(pos) * view.inv_l;
+        return vec3<f32>(a.w / qf, b / qb, l);
+    }
+    return vec3<f32>(a.x, a.y, a.z);
+}

@@ -19,7 +19,7 @@
 //!
 //! **Parameters** (`RenderOptions::params`, `--param KEY=VALUE`):
 //! - `mode=dvr|iso|dvr+iso` and `iso=v1,v2,…` (up to 4 values, in *scalar units* of the active
-//!   field; mapped to the TF coordinate with the TF's range), `iso_alpha=A` (default 1):
+//!   field, or `P%` of its range; mapped to the TF coordinate with the TF's range), `iso_alpha=A` (default 1):
 //!   iso-surfaces by marching tetrahedra evaluated per fragment (`hapt_iso.frag.wgsl`): the
 //!   pixel's segment through the tet is split where the linear field crosses each value, which is
 //!   a point of the tet's marching-tetrahedra polygon; the surface is flat shaded per tet (the
@@ -117,6 +117,34 @@ impl Mode {
     }
 }
 
+/// An iso value: in scalar units, or a percentage of the active field's range (`50%`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum IsoValue {
+    Scalar(f64),
+    Percent(f64),
+}
+
+impl IsoValue {
+    fn parse(x: &str) -> Option<IsoValue> {
+        let (num, pct) = match x.strip_suffix('%') {
+            Some(n) => (n, true),
+            None => (x, false),
+        };
+        let v = num.trim().parse::<f64>().ok().filter(|v| v.is_finite())?;
+        Some(if pct {
+            IsoValue::Percent(v)
+        } else {
+            IsoValue::Scalar(v)
+        })
+    }
+    fn scalar(self, range: (f64, f64)) -> f64 {
+        match self {
+            IsoValue::Scalar(v) => v,
+            IsoValue::Percent(p) => range.0 + (range.1 - range.0) * p / 100.0,
+        }
+    }
+}
+
 enum SortChoice {
     Gpu(GpuSortKind),
     Cpu(Box<dyn Sort>),
@@ -127,7 +155,7 @@ pub struct Hapt {
     integrator_name: String,
     sort: SortChoice,
     mode: Mode,
-    iso: Vec<f64>,
+    iso: Vec<IsoValue>,
     iso_alpha: f32,
     stream: Option<usize>,
     timevarying: bool,
@@ -181,7 +209,10 @@ struct State {
     order: Vec<u32>,
 }
 
-fn parse_params(o: &RenderOptions) -> Result<(Mode, Vec<f64>, f32, Option<usize>, bool)> {
+/// (mode, iso values, iso alpha, stream chunk, time-varying).
+type Params = (Mode, Vec<IsoValue>, f32, Option<usize>, bool);
+
+fn parse_params(o: &RenderOptions) -> Result<Params> {
     let (mut mode, mut iso, mut alpha, mut stream, mut tv) = (None, Vec::new(), 1.0f32, None, false);
     for (k, v) in &o.params {
         let bad = |what: &str| Error::Input(format!("hapt: parameter {k}={v}: {what}"));
@@ -195,10 +226,11 @@ fn parse_params(o: &RenderOptions) -> Result<(Mode, Vec<f64>, f32, Option<usize>
                 })
             }
             "iso" => {
+                // A value ending in % is that percentage of the active field's range.
                 iso = v
                     .split(',')
-                    .map(|x| x.trim().parse::<f64>().ok().filter(|x| x.is_finite()))
-                    .collect::<Option<Vec<f64>>>()
+                    .map(|x| IsoValue::parse(x.trim()))
+                    .collect::<Option<Vec<IsoValue>>>()
                     .ok_or_else(|| bad("expected a comma-separated list of numbers"))?;
                 if iso.is_empty() || iso.len() > 4 {
                     return Err(bad("1 to 4 iso values"));
@@ -215,7 +247,7 @@ fn parse_params(o: &RenderOptions) -> Result<(Mode, Vec<f64>, f32, Option<usize>
                 stream = Some(
                     v.parse::<usize>()
                         .ok()
-                        .filter(|&n| n >= 1 && n <= 1 << 22)
+                        .filter(|n| (1..=1 << 22).contains(n))
                         .ok_or_else(|| bad("expected a chunk size in 1..=4194304 tets"))?,
                 )
             }
@@ -446,7 +478,7 @@ impl Hapt {
             ..Default::default()
         };
         for (i, &v) in self.iso.iter().enumerate() {
-            let s = active_map.s(v);
+            let s = active_map.s(v.scalar(mesh.scalar_range()));
             params.iso_s[i] = s as f32;
             let (c, _) = tf.eval(s);
             params.iso_rgba[i] = [c[0] as f32, c[1] as f32, c[2] as f32, self.iso_alpha];

@@ -47,6 +47,7 @@ fn cpu_pt(c: &mut Criterion) {
         let opts = RenderOptions {
             sort: Some(sort.into()),
             integrator: Some("partial".into()),
+            ..Default::default()
         };
         let mut r = render::make("cpu-pt", &opts).unwrap();
         r.prepare(&mesh, &tf).unwrap();

@@ -41,7 +41,7 @@ pub enum Command {
     #[command(
         after_help = "Example: tetbench render blunt --renderer reference --view 0,0 --size 256x256 --out blunt.exr"
     )]
-    Render(RenderArgs),
+    Render(Box<RenderArgs>),
     /// Compare a test image against a reference image (CONVENTIONS §6).
     #[command(after_help = "Example: tetbench compare cpu-pt.exr reference.exr --json")]
     Compare {
@@ -135,6 +135,10 @@ pub struct RenderArgs {
     /// Integrator: average, partial, preint, exact.
     #[arg(long)]
     pub integrator: Option<String>,
+    /// Renderer parameter KEY=VALUE, repeatable (e.g. hapt: mode=iso, iso=0.3,0.7, stream=65536,
+    /// timevarying=1).
+    #[arg(long = "param", value_name = "KEY=VALUE")]
+    pub params: Vec<String>,
     /// Transfer function: a JSON file or a preset (default, cool-warm, xray).
     #[arg(long, default_value = "default")]
     pub tf: String,

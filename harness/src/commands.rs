@@ -269,9 +269,21 @@ fn render_cmd(args: &RenderArgs) -> Result<()> {
             args.out.display()
         )));
     }
+    let params = args
+        .params
+        .iter()
+        .map(|kv| {
+            kv.split_once('=')
+                .map(|(k, v)| (k.trim().to_string(), v.trim().to_string()))
+                .ok_or_else(|| {
+                    algorithms::Error::Input(format!("--param {kv}: expected KEY=VALUE"))
+                })
+        })
+        .collect::<Result<Vec<_>>>()?;
     let opts = RenderOptions {
         sort: args.sort.clone(),
         integrator: args.integrator.clone(),
+        params,
     };
     let mut renderer = render::make(&args.renderer, &opts)?;
     let tf = TransferFunction::load(&args.tf)?;

@@ -162,6 +162,10 @@ pub struct RendererSpec {
     pub sorts: Option<Vec<String>>,
     #[serde(default)]
     pub integrators: Option<Vec<String>>,
+    /// Renderer parameters (`RenderOptions::params`), e.g. `params = { mode = "iso", iso =
+    /// "0.5" }`; they are added to the variant label as `[k=v,...]`.
+    #[serde(default)]
+    pub params: std::collections::BTreeMap<String, String>,
 }
 
 /// Views: named `AZ,EL` strings, N Fibonacci views, and a rotation path.
@@ -495,11 +499,20 @@ pub fn expand_renderer(r: &RendererSpec) -> Result<Vec<Variant>> {
             let options = RenderOptions {
                 sort: s.clone(),
                 integrator: i.clone(),
+                params: r
+                    .params
+                    .iter()
+                    .map(|(k, v)| (k.clone(), v.clone()))
+                    .collect(),
             };
             let made = render::make(&r.name, &options)?;
             let sort = made.sort_name();
             let integrator = made.integrator_name();
-            let label = variant_label(&made.name(), &sort, &integrator);
+            let mut label = variant_label(&made.name(), &sort, &integrator);
+            if !r.params.is_empty() {
+                let kv: Vec<String> = r.params.iter().map(|(k, v)| format!("{k}={v}")).collect();
+                label.push_str(&format!("[{}]", kv.join(",")));
+            }
             out.push(Variant {
                 renderer: made.name(),
                 options,

@@ -20,6 +20,7 @@ fn render(
     let opts = RenderOptions {
         sort: sort.map(String::from),
         integrator: Some(integ.into()),
+        ..Default::default()
     };
     let mut r = render::make(renderer, &opts).unwrap();
     r.prepare(mesh, tf)

@@ -15,6 +15,9 @@
 //! `TETBENCH_REQUIRE_GPU=1` (CI sets it: a missing driver is a failure) and otherwise prints
 //! that the test was skipped and returns `None`.
 
+pub mod optics;
+pub mod shader;
+
 use std::sync::{Arc, OnceLock};
 use std::time::Instant;
 
@@ -22,6 +25,8 @@ use crate::error::{Error, Result};
 use crate::image::Image;
 
 pub use wgpu;
+
+pub mod sort;
 
 /// The device, its queue and what the adapter can do.
 pub struct Gpu {

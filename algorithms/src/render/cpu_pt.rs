@@ -946,12 +946,14 @@ mod tests {
             let o = crate::render::RenderOptions {
                 sort: Some(sort.into()),
                 integrator: None,
+                ..Default::default()
             };
             assert_eq!(crate::render::make("cpu-pt", &o).unwrap().sort_name(), sort);
         }
         let bad = crate::render::RenderOptions {
             sort: Some("bubble".into()),
             integrator: None,
+            ..Default::default()
         };
         let e = crate::render::make("cpu-pt", &bad).err().unwrap();
         assert!(e.to_string().contains("bubble"), "{e}");

@@ -19,6 +19,9 @@ pub struct RenderOptions {
     pub sort: Option<String>,
     /// Integrator by name; `None` picks the renderer's default.
     pub integrator: Option<String>,
+    /// Renderer-specific parameters, `KEY=VALUE` (`--param` on the command line, `params` in an
+    /// experiment file); a renderer refuses keys it does not know.
+    pub params: Vec<(String, String)>,
 }
 
 /// Time of one frame split by stage (CONVENTIONS §7), in milliseconds. Stages an algorithm does
@@ -91,6 +94,7 @@ registry! {
     raycast => [RAYCAST, REFERENCE],
     cpu_pt => [CPU_PT],
     cpu_pt_slab16 => [CPU_PT_SLAB16],
+    hapt => [HAPT],
     // The last entry, `jbu:<renderer>@<size>`, describes the wrapper pattern (see `is_wrapper`).
     jbu => [JBU],
 }

@@ -1,0 +1,211 @@
+//! WGSL sources of the GPU renderers and their composition. One file per shader stage under
+//! `shaders/` (`*.comp.wgsl`, `*.vert.wgsl`, `*.frag.wgsl`); the functions they share live in
+//! library files (`view.wgsl`, `classify.wgsl`, `optics.wgsl`) that [`compose`] prepends, after
+//! the generated classification table ([`crate::pt::table_wgsl`]): no WGSL function is written
+//! twice and the table is never retyped.
+//!
+//! Bind groups shared by the stages: `@group(0)` the integrator's tables
+//! ([`super::optics::OpticsTables`]), `@group(1)` the view ([`ViewUniform`]), `@group(2)` the
+//! renderer's own buffers.
+
+use crate::camera::{Camera, Projection};
+use crate::error::{Error, Result};
+
+use super::Gpu;
+
+/// Library: the camera uniform, projection and snapping (CONVENTIONS §2, `pt::snap`).
+pub const VIEW: &str = include_str!("shaders/view.wgsl");
+/// Library: exact classification (`pt::classify`) on 64-bit integers emulated in u32 pairs.
+pub const CLASSIFY: &str = include_str!("shaders/classify.wgsl");
+/// Library: `VolumeVarying`, what a vertex stage hands `volume.frag.wgsl`, and its builders.
+pub const VOLUME: &str = include_str!("shaders/volume.wgsl");
+/// Library: element types of `ptint`'s buffers.
+pub const PTINT: &str = include_str!("shaders/ptint.wgsl");
+/// Library: `segment(s_f, s_b, l)` for `average`, `partial`, `preint` (port of `optics_f32`).
+pub const OPTICS: &str = include_str!("shaders/optics.wgsl");
+
+/// Fragment stage of the volume (premultiplied, "over" with `One, OneMinusSrcAlpha`).
+pub const VOLUME_FRAG: &str = include_str!("shaders/volume.frag.wgsl");
+/// Test-only compute stage evaluating `segment` on a list of triples.
+pub const OPTICS_TEST_COMP: &str = include_str!("shaders/optics_test.comp.wgsl");
+/// `ptint` pass 1a: project every vertex.
+pub const PTINT_PROJECT_COMP: &str = include_str!("shaders/ptint_project.comp.wgsl");
+/// `ptint` pass 1b: classify every tet, write its record and its sort key.
+pub const PTINT_CLASSIFY_COMP: &str = include_str!("shaders/ptint_classify.comp.wgsl");
+/// `ptint` pass 2: vertex stage pulling the fan of each sorted tet.
+pub const PTINT_FAN_VERT: &str = include_str!("shaders/ptint_fan.vert.wgsl");
+
+/// Every stage with the libraries it is composed with, for the compile test and the renderers.
+pub const STAGES: &[(&str, &str, &[&str])] = &[
+    ("volume.frag.wgsl", VOLUME_FRAG, VOLUME_FRAG_LIBS),
+    ("optics_test.comp.wgsl", OPTICS_TEST_COMP, &[OPTICS]),
+    (
+        "ptint_project.comp.wgsl",
+        PTINT_PROJECT_COMP,
+        &[VIEW, PTINT],
+    ),
+    ("ptint_classify.comp.wgsl", PTINT_CLASSIFY_COMP, PTINT_LIBS),
+    ("ptint_fan.vert.wgsl", PTINT_FAN_VERT, PTINT_LIBS),
+];
+
+/// The libraries of `volume.frag.wgsl`.
+pub const VOLUME_FRAG_LIBS: &[&str] = &[VIEW, VOLUME, OPTICS];
+/// The libraries of `ptint`'s classify and fan stages.
+pub const PTINT_LIBS: &[&str] = &[VIEW, CLASSIFY, VOLUME, PTINT];
+
+/// The source of one stage: the generated table, then the libraries in order, then the stage.
+pub fn compose(stage: &str, libs: &[&str]) -> String {
+    let mut s = crate::pt::table_wgsl();
+    for l in libs {
+        s.push('\n');
+        s.push_str(l);
+    }
+    s.push('\n');
+    s.push_str(stage);
+    s
+}
+
+/// Compiles a composed stage; a WGSL error (a bug, never bad input) comes back as
+/// `Error::Internal` naming the stage.
+pub fn module(gpu: &Gpu, name: &str, stage: &str, libs: &[&str]) -> Result<wgpu::ShaderModule> {
+    let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let m = gpu
+        .device
+        .create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(name),
+            source: wgpu::ShaderSource::Wgsl(compose(stage, libs).into()),
+        });
+    if let Some(e) = pollster::block_on(scope.pop()) {
+        return Err(Error::Internal(format!("shader {name}: {e}")));
+    }
+    Ok(m)
+}
+
+/// The `View` uniform of `view.wgsl` (96 bytes, std140-compatible layout).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ViewUniform {
+    pub right: [f32; 4],
+    pub up: [f32; 4],
+    pub to_eye: [f32; 4],
+    pub eye: [f32; 4],
+    pub size: [f32; 2],
+    pub pixel: f32,
+    pub radius: f32,
+    pub inv_l: f32,
+    pub persp: u32,
+    pub _pad: [u32; 2],
+}
+
+impl ViewUniform {
+    /// The uniform of `camera`, positions in the frame centred on the bounding-box centre.
+    pub fn new(camera: &Camera, inv_l: f64) -> ViewUniform {
+        let v4 = |v: glam::DVec3| [v.x as f32, v.y as f32, v.z as f32, 0.0];
+        ViewUniform {
+            right: v4(camera.right),
+            up: v4(camera.up),
+            to_eye: v4(camera.to_eye),
+            eye: v4(camera.eye()),
+            size: [camera.width as f32, camera.height as f32],
+            pixel: camera.pixel as f32,
+            radius: camera.radius as f32,
+            inv_l: inv_l as f32,
+            persp: (camera.projection == Projection::Persp) as u32,
+            _pad: [0; 2],
+        }
+    }
+}
+
+/// Layout of `@group(1)`: the view uniform, seen by every stage.
+pub fn view_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
+    gpu.device
+        .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("view"),
+            entries: &[wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            }],
+        })
+}
+
+/// A storage-buffer layout entry at `binding` for `visibility`.
+pub fn storage_entry(
+    binding: u32,
+    visibility: wgpu::ShaderStages,
+    read_only: bool,
+) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+/// A bind group of whole buffers at bindings 0, 1, …
+pub fn bind_buffers(
+    gpu: &Gpu,
+    label: &str,
+    layout: &wgpu::BindGroupLayout,
+    buffers: &[&wgpu::Buffer],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry> = buffers
+        .iter()
+        .enumerate()
+        .map(|(i, b)| wgpu::BindGroupEntry {
+            binding: i as u32,
+            resource: b.as_entire_binding(),
+        })
+        .collect();
+    gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout,
+        entries: &entries,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_stage_compiles() {
+        let Some(gpu) = super::super::test_gpu("every_stage_compiles") else {
+            return;
+        };
+        for (name, src, libs) in STAGES {
+            module(&gpu, name, src, libs).unwrap_or_else(|e| panic!("{e}"));
+        }
+        // A broken stage is reported, naming it.
+        let e = module(&gpu, "broken", "fn f() -> u32 { return 1.0; }", &[]).unwrap_err();
+        assert!(e.to_string().contains("broken"), "{e}");
+    }
+
+    #[test]
+    fn composed_source_carries_the_generated_table() {
+        let s = compose(VOLUME_FRAG, VOLUME_FRAG_LIBS);
+        assert!(s.starts_with(&crate::pt::table_wgsl()));
+        assert!(s.contains("fn segment(") && s.contains("fn fs_volume("));
+        // No function is defined in two files.
+        let libs = [VIEW, CLASSIFY, OPTICS, VOLUME, PTINT];
+        let mut seen = std::collections::HashSet::new();
+        for src in libs.iter().chain(STAGES.iter().map(|s| &s.1)) {
+            for line in src.lines() {
+                if let Some(rest) = line.strip_prefix("fn ") {
+                    let name = rest.split('(').next().unwrap().to_string();
+                    assert!(seen.insert(name.clone()), "fn {name} defined twice");
+                }
+            }
+        }
+    }
+}

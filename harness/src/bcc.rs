@@ -209,6 +209,7 @@ fn prepare_pt(
     let opts = RenderOptions {
         sort: sort.map(String::from),
         integrator: Some("partial".into()),
+        ..Default::default()
     };
     // A throwaway prepare first, so that process-wide tables built once (Ψ) are not counted.
     render::make(renderer, &opts)?.prepare(mesh, t)?;

@@ -116,6 +116,7 @@ fn frame(mesh: &Mesh, tf: &TransferFunction, sort: &str, cam: &Camera) -> Frame 
     let opts = RenderOptions {
         sort: Some(sort.into()),
         integrator: Some("partial".into()),
+        ..Default::default()
     };
     let mut r = render::make("cpu-pt", &opts).unwrap();
     r.prepare(mesh, tf).unwrap();

@@ -65,6 +65,8 @@ pub const HAPT_SORTS: &[&str] = &[
     "centroid-radix",
     "bucket",
     "mpvonc",
+    "bcc-implicit",
+    "bcc-implicit-skip",
 ];
 
 pub static HAPT: RendererInfo = RendererInfo {
@@ -669,6 +671,7 @@ impl Renderer for Hapt {
         self.frame = 0;
         if let SortChoice::Cpu(s) = &mut self.sort {
             s.prepare(mesh)?;
+            s.set_transfer_function(mesh, tf)?;
         }
         self.state = Some(self.build(mesh, tf)?);
         Ok(())
@@ -721,11 +724,13 @@ impl Renderer for Hapt {
             counters.push(("upload_ms", ms_since(t)));
             counters.push(("time_step", step as f64));
         }
-        let n = st.tets as u32;
+        let mut n = st.tets as u32;
         let mut cpu_sort_ms = 0.0;
         if let SortChoice::Cpu(s) = &mut self.sort {
             let t = Instant::now();
             s.sort(mesh, camera, &mut st.order)?;
+            // A skipping sort (`bcc-implicit-skip`) leaves out fully transparent tets.
+            n = st.order.len() as u32;
             if let Some(b) = &st.order_buf {
                 gpu.queue.write_buffer(b, 0, bytemuck::cast_slice(&st.order));
             }

@@ -352,4 +352,12 @@ fn list() {
             g.name, g.default_tets, g.description
         );
     }
+    println!("GPU adapters (TETBENCH_ADAPTER=<index or part of the name>):");
+    let adapters = algorithms::gpu::adapters();
+    if adapters.is_empty() {
+        println!("  none found");
+    }
+    for (i, a) in adapters.iter().enumerate() {
+        println!("  {i}: {}", algorithms::gpu::describe(a));
+    }
 }

@@ -212,12 +212,21 @@ fn want(name: &str, sorts: &[&str], integrators: &[&str]) -> Option<RendererSpec
     })
 }
 
-/// Projected-tetrahedra renderers (PTINT's family) with partial pre-integration.
+/// Projected-tetrahedra renderers (PTINT's family) with partial pre-integration. With
+/// `all_sorts` every sort of `hapt` and `cpu-pt`; `ptint` keeps its own, the centroid sort (its
+/// CPU sort variants are `cpu-pt`'s, and on a software GPU each extra row costs seconds).
 fn pt_family(all_sorts: bool) -> Vec<RendererSpec> {
     let s: &[&str] = if all_sorts { &["*"] } else { &[] };
     ["ptint", "hapt", "cpu-pt"]
         .iter()
-        .filter_map(|n| want(n, s, &["partial"]))
+        .filter_map(|n| {
+            let sorts: &[&str] = if *n == "ptint" && all_sorts {
+                &["centroid"]
+            } else {
+                s
+            };
+            want(n, sorts, &["partial"])
+        })
         .collect()
 }
 

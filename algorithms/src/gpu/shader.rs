@@ -174,6 +174,57 @@ pub fn bind_buffers(
     })
 }
 
+/// The render pipeline of the volume: a vertex stage feeding `volume.frag.wgsl`, triangles
+/// without culling, premultiplied "over" (`One, OneMinusSrcAlpha`, CONVENTIONS §4) into the
+/// context's float target ([`Gpu::target_format`]). Used by `ptint`'s pass 2 and `hapt`'s single
+/// pass.
+pub fn volume_pipeline(
+    gpu: &Gpu,
+    layout: &wgpu::PipelineLayout,
+    vs: &wgpu::ShaderModule,
+    vs_entry: &str,
+    fs: &wgpu::ShaderModule,
+) -> wgpu::RenderPipeline {
+    let over = wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::One,
+        dst_factor: wgpu::BlendFactor::OneMinusSrcAlpha,
+        operation: wgpu::BlendOperation::Add,
+    };
+    gpu.device
+        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("volume"),
+            layout: Some(layout),
+            vertex: wgpu::VertexState {
+                module: vs,
+                entry_point: Some(vs_entry),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleList,
+                cull_mode: None,
+                ..Default::default()
+            },
+            depth_stencil: None,
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: fs,
+                entry_point: Some("fs_volume"),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: gpu.target_format,
+                    blend: Some(wgpu::BlendState {
+                        color: over,
+                        alpha: over,
+                    }),
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -94,6 +94,7 @@ registry! {
     raycast => [RAYCAST, REFERENCE],
     cpu_pt => [CPU_PT],
     cpu_pt_slab16 => [CPU_PT_SLAB16],
+    ptint => [PTINT],
     hapt => [HAPT],
     // The last entry, `jbu:<renderer>@<size>`, describes the wrapper pattern (see `is_wrapper`).
     jbu => [JBU],

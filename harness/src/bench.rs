@@ -225,6 +225,14 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<Outcome> {
         let pair_dir = opts.out.join(".pairs");
 
         for var in &exp.variants {
+            if var.max_tets.is_some_and(|m| tets > m) {
+                bar.println(format!(
+                    "{name}: {} left out ({tets} tets > max_tets {})",
+                    var.label,
+                    var.max_tets.unwrap_or(0)
+                ));
+                continue;
+            }
             bar.set_message(format!("{name}: {} setup", var.label));
             let mut renderer = render::make(&var.renderer, &var.options)?;
             // A fresh clone has empty caches: derived data the renderer needs is counted.

@@ -153,7 +153,7 @@ impl<'de> Deserialize<'de> for OneOrMany {
 }
 
 /// A renderer with the sorts and integrators to try (each absent: the renderer's default;
-/// `["*"]`: every one the registry lists for it).
+/// `["*"]`: every one the registry lists for it, but the lattice-only sorts).
 #[derive(Deserialize, Debug, Clone, Default)]
 #[serde(deny_unknown_fields)]
 pub struct RendererSpec {
@@ -166,6 +166,10 @@ pub struct RendererSpec {
     /// "0.5" }`; they are added to the variant label as `[k=v,...]`.
     #[serde(default)]
     pub params: std::collections::BTreeMap<String, String>,
+    /// Run this renderer only on meshes with at most this many tets (the others get no row,
+    /// and the run says so): e.g. a GPU renderer on a software rasteriser.
+    #[serde(default)]
+    pub max_tets: Option<usize>,
 }
 
 /// Views: named `AZ,EL` strings, N Fibonacci views, and a rotation path.
@@ -208,6 +212,8 @@ pub struct PairSpec {
 #[derive(Debug, Clone)]
 pub struct Variant {
     pub renderer: String,
+    /// See [`RendererSpec::max_tets`].
+    pub max_tets: Option<usize>,
     pub options: RenderOptions,
     pub label: String,
     pub sort: String,
@@ -476,9 +482,12 @@ pub fn expand_renderer(r: &RendererSpec) -> Result<Vec<Variant>> {
     let info = render::info(&r.name)?;
     let sorts: Vec<Option<String>> = match &r.sorts {
         None => vec![None],
-        Some(v) if v.iter().any(|s| s == "*") => {
-            info.sorts.iter().map(|s| Some(s.to_string())).collect()
-        }
+        Some(v) if v.iter().any(|s| s == "*") => info
+            .sorts
+            .iter()
+            .filter(|s| !algorithms::sort::LATTICE_SORTS.contains(s))
+            .map(|s| Some(s.to_string()))
+            .collect(),
         Some(v) if v.is_empty() => vec![None],
         Some(v) => v.iter().map(|s| Some(s.clone())).collect(),
     };
@@ -515,6 +524,7 @@ pub fn expand_renderer(r: &RendererSpec) -> Result<Vec<Variant>> {
             }
             out.push(Variant {
                 renderer: made.name(),
+                max_tets: r.max_tets,
                 options,
                 label,
                 sort,

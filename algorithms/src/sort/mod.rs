@@ -85,6 +85,10 @@ pub const SORTS: &[&str] = &[
     "bcc-implicit-skip",
 ];
 
+/// The sorts that only apply to meshes built on a lattice (`datasets-gen` `bcc`, `cc5`, `cc6`);
+/// an experiment's `sorts = ["*"]` leaves them out.
+pub const LATTICE_SORTS: &[&str] = &["bcc-implicit", "bcc-implicit-skip"];
+
 /// Default slab count of `bucket` (PTINT: "around 20").
 pub const DEFAULT_SLABS: usize = 20;
 /// Largest slab count `bucket:N` accepts.

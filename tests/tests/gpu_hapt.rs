@@ -3,8 +3,9 @@
 //! iso-surfaces closed on a sphere field, streaming with mesh-independent GPU memory and the
 //! same image, time-varying frames equal to renders of each step. Small meshes, 128².
 
+mod common;
+
 use algorithms::camera::{Camera, Projection, View};
-use algorithms::io::{self, LoadOptions};
 use algorithms::metrics::compare;
 use algorithms::render::{self, Frame, RenderOptions};
 use algorithms::{Mesh, TransferFunction};
@@ -89,14 +90,9 @@ fn hapt_equals_cpu_pt_on_blunt() {
     let Some(_gpu) = algorithms::gpu::test_gpu("hapt_equals_cpu_pt_on_blunt") else {
         return;
     };
-    match io::resolve_short_name("blunt") {
-        Some(Ok(_)) => {}
-        _ => {
-            eprintln!("blunt: data not found, skipped");
-            return;
-        }
-    }
-    let mesh = io::load("blunt", &LoadOptions::default()).unwrap();
+    let Some(mesh) = common::nasa("blunt") else {
+        return;
+    };
     check_equal(
         "blunt",
         &mesh,

@@ -3,8 +3,9 @@
 //! degenerate hard case renders finite (GPU issue, "Done when"). Each test needs an adapter:
 //! without one it prints SKIPPED, or fails under `TETBENCH_REQUIRE_GPU=1`.
 
+mod common;
+
 use algorithms::camera::{Camera, Projection, View};
-use algorithms::io;
 use algorithms::metrics::compare;
 use algorithms::render::{self, Frame, RenderOptions};
 use algorithms::{Mesh, TransferFunction};
@@ -130,18 +131,10 @@ fn ptint_matches_cpu_pt_on_blunt() {
     let Some(_gpu) = algorithms::gpu::test_gpu("ptint_matches_cpu_pt_on_blunt") else {
         return;
     };
-    match io::resolve_short_name("blunt") {
-        Some(Ok(_)) => {}
-        _ => {
-            if std::env::var("TETBENCH_REQUIRE_DATA").is_ok_and(|v| v == "1") {
-                panic!("blunt: data not found and TETBENCH_REQUIRE_DATA=1");
-            }
-            eprintln!("blunt: data not found, skipped");
-            return;
-        }
-    }
     let name = "blunt";
-    let mesh = io::load(name, &io::LoadOptions::default()).unwrap();
+    let Some(mesh) = common::nasa(name) else {
+        return;
+    };
     check(
         name,
         &mesh,

@@ -1,8 +1,9 @@
 //! The reference renders every datasets-gen mesh (hard cases included) and the NASA grids with no
 //! NaN or inf pixel, no lost ray, and bit-identically twice (optics issue, "Done when").
 
+mod common;
+
 use algorithms::camera::{Camera, Projection, View};
-use algorithms::io::{self, LoadOptions};
 use algorithms::render::raycast::RayCaster;
 use algorithms::render::Renderer;
 use algorithms::{Mesh, TransferFunction};
@@ -64,14 +65,9 @@ fn every_generated_mesh() {
 fn nasa_grids() {
     let tf = TransferFunction::preset("default").unwrap();
     for name in ["blunt", "post", "comb"] {
-        match io::resolve_short_name(name) {
-            Some(Ok(_)) => {}
-            _ => {
-                eprintln!("{name}: data not found, skipped");
-                continue;
-            }
-        }
-        let mesh = io::load(name, &LoadOptions::default()).unwrap();
+        let Some(mesh) = common::nasa(name) else {
+            continue;
+        };
         check(name, &mesh, &tf, 40);
     }
 }

@@ -177,13 +177,14 @@ pub fn bind_buffers(
 /// The render pipeline of the volume: a vertex stage feeding `volume.frag.wgsl`, triangles
 /// without culling, premultiplied "over" (`One, OneMinusSrcAlpha`, CONVENTIONS §4) into the
 /// context's float target ([`Gpu::target_format`]). Used by `ptint`'s pass 2 and `hapt`'s single
-/// pass.
+/// pass; `fs_entry` is `fs_volume`, or hapt's iso-surface fragment stage.
 pub fn volume_pipeline(
     gpu: &Gpu,
     layout: &wgpu::PipelineLayout,
     vs: &wgpu::ShaderModule,
     vs_entry: &str,
     fs: &wgpu::ShaderModule,
+    fs_entry: &str,
 ) -> wgpu::RenderPipeline {
     let over = wgpu::BlendComponent {
         src_factor: wgpu::BlendFactor::One,
@@ -209,7 +210,7 @@ pub fn volume_pipeline(
             multisample: wgpu::MultisampleState::default(),
             fragment: Some(wgpu::FragmentState {
                 module: fs,
-                entry_point: Some("fs_volume"),
+                entry_point: Some(fs_entry),
                 compilation_options: Default::default(),
                 targets: &[Some(wgpu::ColorTargetState {
                     format: gpu.target_format,

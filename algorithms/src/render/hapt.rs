@@ -405,46 +405,10 @@ fn pipeline(
             "fs_hapt_iso",
         )
     };
-    // Premultiplied "over": I ← I_seg + (1 − α_seg)·I (CONVENTIONS §4).
-    let over = wgpu::BlendComponent {
-        src_factor: wgpu::BlendFactor::One,
-        dst_factor: wgpu::BlendFactor::OneMinusSrcAlpha,
-        operation: wgpu::BlendOperation::Add,
-    };
-    Ok(gpu
-        .device
-        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("hapt"),
-            layout: Some(&layout),
-            vertex: wgpu::VertexState {
-                module: &vs,
-                entry_point: Some(if stream { "vs_hapt_stream" } else { "vs_hapt" }),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: wgpu::PrimitiveState {
-                topology: wgpu::PrimitiveTopology::TriangleList,
-                cull_mode: None,
-                ..Default::default()
-            },
-            depth_stencil: None,
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &fs,
-                entry_point: Some(fs_entry),
-                compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: gpu.target_format,
-                    blend: Some(wgpu::BlendState {
-                        color: over,
-                        alpha: over,
-                    }),
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
-            }),
-            multiview_mask: None,
-            cache: None,
-        }))
+    let vs_entry = if stream { "vs_hapt_stream" } else { "vs_hapt" };
+    Ok(shader::volume_pipeline(
+        gpu, &layout, &vs, vs_entry, &fs, fs_entry,
+    ))
 }
 
 impl Hapt {

@@ -292,7 +292,7 @@ impl State {
                 ],
                 immediate_size: 0,
             });
-        let draw = shader::volume_pipeline(&gpu, &draw_pl, &vs, "vs_fan", &fs);
+        let draw = shader::volume_pipeline(&gpu, &draw_pl, &vs, "vs_fan", &fs, "fs_volume");
         let project_bg = shader::bind_buffers(&gpu, "ptint project", &project_layout, &[&vbuf, &pverts]);
         let classify_bg = shader::bind_buffers(
             &gpu,
@@ -366,6 +366,7 @@ impl Renderer for Ptint {
         self.state = None;
         self.state = Some(State::new(mesh, tf, &self.integrator_name)?);
         self.sort.prepare(mesh)?;
+        self.sort.set_transfer_function(mesh, tf)?;
         Ok(())
     }
 

@@ -442,6 +442,9 @@ fn common_notes(ctx: &Ctx, cfg: &Config) -> Vec<String> {
     if ctx.quick {
         n.push("`--quick`: smaller meshes (see 'mesh used'), smaller images and fewer views than the paper; rates are not comparable to the paper's at face value.".into());
     }
+    if let Some(cap) = cfg.renderers.iter().find_map(|r| r.max_tets) {
+        n.push(format!("The GPU adapter is a software rasteriser (see README.md): ptint and hapt rows are measured on meshes up to {cap} tets only, and their rates say what the algorithms cost on a CPU emulating a GPU, not GPU speed. Rerun on a real GPU for the other rows."));
+    }
     n
 }
 

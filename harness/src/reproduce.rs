@@ -430,12 +430,17 @@ fn count(n: usize) -> String {
 fn common_notes(ctx: &Ctx, cfg: &Config) -> Vec<String> {
     let mut n = vec![
         format!(
-            "Measured: {} image(s) {}, views {}, {} measured frame(s) per view after {} warm-up frame(s); fps = 1000 / mean frame time over the views (the papers' rotating model); errors are RMSE against the `reference` renderer (exact integrator).",
+            "Measured: {} image(s) {}, views {}, {} measured frame(s) per view after {} warm-up frame(s); fps = 1000 / mean frame time over the views (the papers' rotating model); {}",
             cfg.sizes.as_ref().map(|s| s.join(", ")).unwrap_or_default(),
             cfg.projection.as_ref().map(|p| p.0.join(", ")).unwrap_or_default(),
             describe_views(&cfg.views),
             cfg.repeats.unwrap_or(3),
             cfg.warmup.unwrap_or(1),
+            if cfg.error == Some(false) {
+                "no image was compared with the exact reference in this run (— in the RMSE columns)."
+            } else {
+                "errors are RMSE against the `reference` renderer (exact integrator)."
+            }
         ),
         "CPU B/tet: heap bytes the renderer keeps after `prepare` (counting allocator); GPU B/tet: the renderer's buffers and textures.".into(),
     ];

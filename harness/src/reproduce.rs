@@ -448,7 +448,7 @@ fn common_notes(ctx: &Ctx, cfg: &Config) -> Vec<String> {
         n.push("`--quick`: smaller meshes (see 'mesh used'), smaller images and fewer views than the paper; rates are not comparable to the paper's at face value.".into());
     }
     if let Some(cap) = cfg.renderers.iter().find_map(|r| r.max_tets) {
-        n.push(format!("The GPU adapter is a software rasteriser (see README.md): ptint and hapt rows are measured on meshes up to {cap} tets only, and their rates say what the algorithms cost on a CPU emulating a GPU, not GPU speed. Rerun on a real GPU for the other rows."));
+        n.push(format!("The GPU adapter is a software rasteriser (see README.md): the ptint and hapt rows of the papers' direct volume rendering variants are measured on meshes up to {cap} tets only (HAPT Table 2's ISO and DVR+ISO rows on all), and their rates say what the algorithms cost on a CPU emulating a GPU, not GPU speed. Rerun on a real GPU for the other rows."));
     }
     n
 }

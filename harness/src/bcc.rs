@@ -434,7 +434,8 @@ pub fn pt_table(quick: bool, dir: &Path) -> Result<(Table, Vec<PathBuf>)> {
         m = sz.bcc_n - 1
     ));
     t.notes.push(format!(
-        "cpu-pt (and hapt when registered; not yet), integrator partial, sort bcc-implicit (the lattice traversal, for CC and BCC alike), {}² orthographic, {} view(s) {}, median of {} frames after a warm-up, the cases of one field rendered in turn (interleaved, so that load from other processes falls on all alike); bytes_per_tet = heap bytes cpu-pt's prepare retains (counting allocator) / tets.",
+        "{}, integrator partial, sort bcc-implicit (the lattice traversal, for CC and BCC alike), {}² orthographic, {} view(s) {}, median of {} frames after a warm-up, the cases of one field rendered in turn (interleaved, so that load from other processes falls on all alike); bytes_per_tet = heap bytes the renderer's prepare retains (counting allocator) / tets.",
+        renderers.join(" and "),
         sz.image,
         sz.views.len(),
         sz.views
@@ -612,8 +613,13 @@ mod tests {
     fn quick_tables_have_their_rows_and_skipping_keeps_the_image() {
         let dir = tempfile_dir();
         let (t, plots) = pt_table(true, &dir).unwrap();
-        // 2 fields × 3 lattices, plus 2 sparse rows per lattice on the shell.
-        assert_eq!(t.rows.len(), 12);
+        // 2 fields × 3 lattices per renderer (cpu-pt, hapt when registered), plus 2 sparse
+        // cpu-pt rows per lattice on the shell.
+        let renderers = ["cpu-pt", "hapt"]
+            .iter()
+            .filter(|r| render::info(r).is_ok())
+            .count();
+        assert_eq!(t.rows.len(), 6 * renderers + 6);
         assert!(plots.iter().all(|p| p.exists()));
         let skip: Vec<&String> = t
             .notes

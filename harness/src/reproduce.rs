@@ -1401,7 +1401,7 @@ pub fn run(quick: bool, out: &Path, only: &[String]) -> Result<()> {
             out,
             JBU_ID,
             &format!(
-                "[{JBU_ID}.md]({JBU_ID}.md), [{JBU_ID}.csv]({JBU_ID}.csv): {:.0} s ({date}{})",
+                "[{JBU_ID}.csv]({JBU_ID}.csv) and the `{JBU_ID}_time_*.svg` (Fig. 3/4), `{JBU_ID}_rmse_*.svg` (Fig. 5) plots: {:.0} s ({date}{})",
                 t0.elapsed().as_secs_f64(),
                 if quick { ", --quick" } else { "" }
             ),

@@ -593,7 +593,17 @@ fn algo_rows(
         if mine.is_empty() {
             let mut r = Vec::new();
             head(&mut r);
-            r.push("— (not implemented)".into());
+            // Registered but without rows (e.g. a GPU renderer capped on a software adapter)
+            // is not the same as not implemented.
+            let registered = p.ours.iter().any(|pat| {
+                let name = pat.split(['/', '*']).next().unwrap_or("");
+                !name.is_empty() && render::info(name).is_ok()
+            });
+            r.push(if registered {
+                "— (not measured in this run)".into()
+            } else {
+                "— (not implemented)".into()
+            });
             r.extend(std::iter::repeat_n("—".to_string(), measured_cols));
             out.push(r);
         }

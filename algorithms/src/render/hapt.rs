@@ -57,17 +57,10 @@ use crate::sort::{self, Sort};
 use crate::tf::{ScalarMap, TransferFunction};
 
 /// Sorts `hapt` takes: the GPU sorts and every CPU sort.
-pub const HAPT_SORTS: &[&str] = &[
+pub const HAPT_SORTS: &[&str] = &sort::with_sorts::<2, { 2 + sort::CPU_SORTS.len() }>([
     "gpu-radix",
     "gpu-bitonic",
-    "centroid",
-    "centroid-par",
-    "centroid-radix",
-    "bucket",
-    "mpvonc",
-    "bcc-implicit",
-    "bcc-implicit-skip",
-];
+]);
 
 pub static HAPT: RendererInfo = RendererInfo {
     name: "hapt",

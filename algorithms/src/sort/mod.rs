@@ -75,7 +75,10 @@ pub trait Sort: Send {
 }
 
 /// The sorts known by name. `bucket` also takes a slab count, `bucket:N`.
-pub const SORTS: &[&str] = &[
+pub const SORTS: &[&str] = &CPU_SORTS;
+
+/// [`SORTS`] as an array, for renderers that list other sorts beside them ([`with_sorts`]).
+pub const CPU_SORTS: [&str; 7] = [
     "centroid",
     "centroid-par",
     "centroid-radix",
@@ -84,6 +87,21 @@ pub const SORTS: &[&str] = &[
     "bcc-implicit",
     "bcc-implicit-skip",
 ];
+
+/// `own` followed by every CPU sort: the sort list of a renderer that has sorts of its own
+/// (e.g. `hapt`'s GPU sorts) and takes every CPU sort too, kept in step with [`CPU_SORTS`].
+pub const fn with_sorts<const A: usize, const N: usize>(
+    own: [&'static str; A],
+) -> [&'static str; N] {
+    assert!(N == A + CPU_SORTS.len(), "N must be A + CPU_SORTS.len()");
+    let mut out = [""; N];
+    let mut i = 0;
+    while i < N {
+        out[i] = if i < A { own[i] } else { CPU_SORTS[i - A] };
+        i += 1;
+    }
+    out
+}
 
 /// The sorts that only apply to meshes built on a lattice (`datasets-gen` `bcc`, `cc5`, `cc6`);
 /// an experiment's `sorts = ["*"]` leaves them out.

@@ -12,6 +12,7 @@ pub mod jbu;
 pub mod lattice;
 pub mod mesh;
 pub mod metrics;
+pub mod names;
 pub mod optics;
 pub mod optics_f32;
 pub mod pt;

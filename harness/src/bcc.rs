@@ -17,7 +17,6 @@
 //! both lattices map scalars alike.
 
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
 use algorithms::bcc_recon::{self, BccDomain, BccVolume, CcVolume, Sampling, Scheme, Volume};
 use algorithms::camera::{fibonacci_views, Camera, Projection, View};
@@ -26,15 +25,16 @@ use algorithms::image::Image;
 use algorithms::mesh::Aabb;
 use algorithms::metrics::{compare, ImageError};
 use algorithms::optics::integrator;
-use algorithms::render::{self, RenderOptions};
+use algorithms::render::{self, Frame, RenderOptions};
 use algorithms::tf::{TfPoint, TransferFunction};
 use algorithms::{alloc, Mesh, Result};
 use datasets_gen::fields;
 use datasets_gen::grid::{bcc_lattice, cc_lattice, Lattice, Split};
 
-use crate::bench::median;
+use crate::measure::{measure_each, measure_interleaved, Case, Frames};
 use crate::plots::{self, TimeError};
-use crate::reproduce::Table;
+use crate::stats::median;
+use crate::table::{fixed as fmt, sci, Table};
 
 pub const PT_ID: &str = "bcc_pt";
 pub const RECON_ID: &str = "bcc_reconstruction";
@@ -159,17 +159,9 @@ fn mean_err(e: &[ImageError]) -> ImageError {
     }
 }
 
-fn fmt(v: f64, digits: usize) -> String {
-    if v.is_finite() {
-        format!("{v:.digits$}")
-    } else {
-        v.to_string()
-    }
-}
-
 fn err_cols(e: &ImageError) -> Vec<String> {
     vec![
-        format!("{:.3e}", e.rmse),
+        sci(e.rmse, 3),
         fmt(e.psnr, 2),
         fmt(e.max_abs, 4),
         fmt(e.diff_pixels_pct, 2),
@@ -234,27 +226,30 @@ fn time_interleaved(
     cases: &mut [(Box<dyn render::Renderer>, &Mesh, PtRun)],
     sz: &Sizes,
 ) -> Result<()> {
+    let frames = Frames {
+        warmup: 1,
+        repeats: sz.repeats,
+    };
     for &v in &sz.views {
-        let mut last = Vec::new();
-        for (r, mesh, _) in cases.iter_mut() {
-            last.push(r.render(mesh, &cam(&mesh.bbox(), v, sz.image))?);
-        }
-        for _ in 0..sz.repeats {
-            for (k, (r, mesh, run)) in cases.iter_mut().enumerate() {
-                let frame = r.render(mesh, &cam(&mesh.bbox(), v, sz.image))?;
-                run.times.push(frame.times.total_ms);
-                run.sort_ms.push(frame.times.sort_ms);
-                run.draw_ms.push(frame.times.draw_ms);
-                last[k] = frame;
-            }
-        }
-        for ((_, _, run), frame) in cases.iter_mut().zip(last) {
-            run.skipped = frame
+        let mut timed: Vec<Case> = cases
+            .iter_mut()
+            .map(|(r, mesh, _)| Case {
+                renderer: r.as_mut(),
+                mesh,
+                camera: cam(&mesh.bbox(), v, sz.image),
+            })
+            .collect();
+        let measured = measure_interleaved(&mut timed, frames)?;
+        for ((_, _, run), m) in cases.iter_mut().zip(measured) {
+            run.times.push(m.times.total_ms);
+            run.sort_ms.push(m.times.sort_ms);
+            run.draw_ms.push(m.times.draw_ms);
+            run.skipped = m
                 .counters
                 .iter()
                 .find(|c| c.0 == "tets_skipped")
                 .map_or(0.0, |c| c.1);
-            run.images.push(frame.image);
+            run.images.push(m.image);
         }
     }
     Ok(())
@@ -372,7 +367,7 @@ pub fn pt_table(quick: bool, dir: &Path) -> Result<(Table, Vec<PathBuf>)> {
             let sort = sort.unwrap_or("default");
             {
                 let e = errors(&run.images, gt)?;
-                let time = median(run.times.clone());
+                let time = median(&run.times);
                 let ntets = mesh.num_tets() as f64;
                 let mut row = vec![
                     lname.to_string(),
@@ -384,9 +379,9 @@ pub fn pt_table(quick: bool, dir: &Path) -> Result<(Table, Vec<PathBuf>)> {
                     mesh.num_tets().to_string(),
                     fmt(100.0 * (ntets - run.skipped) / ntets, 1),
                     fmt(time, 2),
-                    fmt(median(run.sort_ms.clone()), 2),
-                    fmt(median(run.draw_ms.clone()), 2),
-                    format!("{:.3e}", ntets / (time / 1e3)),
+                    fmt(median(&run.sort_ms), 2),
+                    fmt(median(&run.draw_ms), 2),
+                    sci(ntets / (time / 1e3), 3),
                     fmt(run.bytes as f64 / ntets, 1),
                 ];
                 row.extend(err_cols(&e));
@@ -541,28 +536,32 @@ pub fn recon_table(quick: bool, dir: &Path) -> Result<(Table, Vec<PathBuf>)> {
             };
             let mut times = Vec::new();
             let mut imgs = Vec::new();
+            let frames = Frames {
+                warmup: 0,
+                repeats: sz.repeats,
+            };
             for &v in &sz.views {
                 let c = cam(&bbox, v, sz.image);
-                let mut img = Image::new(1, 1);
-                for _ in 0..sz.repeats {
-                    let t0 = Instant::now();
-                    img = bcc_recon::raycast(
-                        vol,
-                        scheme,
-                        &c,
-                        Sampling {
-                            map,
-                            integ: exact.as_ref(),
-                            step: sz.rc_step,
-                            diag,
-                        },
-                    )?;
-                    times.push(t0.elapsed().as_secs_f64() * 1e3);
-                }
-                imgs.push(img);
+                let m = measure_each(1, frames, |_| {
+                    let sampling = Sampling {
+                        map,
+                        integ: exact.as_ref(),
+                        step: sz.rc_step,
+                        diag,
+                    };
+                    Ok(Frame {
+                        image: bcc_recon::raycast(vol, scheme, &c, sampling)?,
+                        times: Default::default(),
+                        counters: Vec::new(),
+                    })
+                })?
+                .remove(0);
+                // The median per view, then the median of those.
+                times.push(m.wall_ms);
+                imgs.push(m.image);
             }
             let e = errors(&imgs, &gts)?;
-            let time = median(times);
+            let time = median(&times);
             let mut row = vec![
                 scheme.name().to_string(),
                 scheme.lattice().to_string(),

@@ -14,7 +14,7 @@ use algorithms::{Error, Result, TransferFunction};
 use serde::de::{self, MapAccess, SeqAccess, Visitor};
 use serde::{Deserialize, Deserializer};
 
-use crate::cli::MeshArgs;
+use crate::meshes::{self, MeshSpec, Source};
 
 /// The experiment file as written.
 #[derive(Deserialize, Debug, Clone, Default)]
@@ -332,10 +332,7 @@ pub fn validate(cfg: Config, base: &Path) -> Result<Experiment> {
             }
             let mut out = Vec::new();
             for (i, s) in list.iter().enumerate() {
-                out.push(
-                    crate::commands::parse_size(s)
-                        .map_err(|e| key_err(format!("sizes[{i}]"), e))?,
-                );
+                out.push(meshes::parse_size(s).map_err(|e| key_err(format!("sizes[{i}]"), e))?);
             }
             out
         }
@@ -396,7 +393,7 @@ pub fn validate(cfg: Config, base: &Path) -> Result<Experiment> {
         error: cfg.error.unwrap_or(true),
         save_images: cfg.save_images.unwrap_or(false),
         cache_dir: cfg.cache_dir,
-        seed: cfg.seed.unwrap_or(1),
+        seed: cfg.seed.unwrap_or(meshes::DEFAULT_SEED),
         pairs: cfg.pairs,
         base_dir: base.to_path_buf(),
     })
@@ -411,36 +408,15 @@ fn check_dataset(d: &DatasetSpec, base: &Path) -> Result<()> {
         }
     }
     let name = d.mesh.as_str();
-    if Path::new(name).exists() || base.join(name).exists() {
-        return Ok(());
-    }
-    if algorithms::io::SHORT_NAMES
-        .iter()
-        .any(|(n, _, _)| *n == name)
-    {
-        return Ok(());
-    }
-    let (gen, tets) = match name.split_once(':') {
-        Some((g, n)) => (
-            g,
-            Some(n.parse::<usize>().map_err(|_| {
-                Error::Input(format!("'{name}': size after ':' must be a tet count"))
-            })?),
-        ),
-        None => (name, None),
-    };
-    if datasets_gen::find(gen).is_none() {
-        return Err(Error::Input(format!(
-            "'{name}': no such file, and not a dataset name (see `tetbench list`)"
-        )));
-    }
-    if tets.is_some() && d.tets.is_some() {
-        return Err(Error::Input(format!(
-            "'{name}': give the size either after ':' or as `tets`, not both"
-        )));
-    }
-    if d.tets == Some(0) || tets == Some(0) {
-        return Err(Error::Input(format!("'{name}': tets must be at least 1")));
+    if let Source::Generated { tets, .. } = meshes::resolve(name, base)? {
+        if tets.is_some() && d.tets.is_some() {
+            return Err(Error::Input(format!(
+                "'{name}': give the size either after ':' or as `tets`, not both"
+            )));
+        }
+        if d.tets == Some(0) {
+            return Err(Error::Input(format!("'{name}': tets must be at least 1")));
+        }
     }
     Ok(())
 }
@@ -457,8 +433,8 @@ impl DatasetSpec {
         }
     }
 
-    /// The mesh arguments for [`crate::commands::load_mesh`].
-    pub fn mesh_args(&self, base: &Path, seed: u64) -> MeshArgs {
+    /// The mesh to load ([`meshes::load_mesh`]), a relative file resolved against `base`.
+    pub fn mesh_spec(&self, base: &Path, seed: u64) -> MeshSpec {
         let mut mesh = self.mesh.clone();
         if !Path::new(&mesh).exists() && base.join(&mesh).exists() {
             mesh = base.join(&mesh).display().to_string();
@@ -466,13 +442,11 @@ impl DatasetSpec {
         if let Some(t) = self.tets {
             mesh = format!("{mesh}:{t}");
         }
-        MeshArgs {
-            mesh,
+        MeshSpec {
             scalar: self.scalar.clone(),
-            q_file: None,
             split: self.split,
-            one_based: false,
             seed,
+            ..MeshSpec::named(&mesh)
         }
     }
 }

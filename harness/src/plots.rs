@@ -12,7 +12,8 @@ use algorithms::{Error, Result};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use crate::bench::{median, PairRow, Row};
+use crate::rows::{PairRow, Row};
+use crate::stats::median;
 
 type PResult = std::result::Result<(), Box<dyn std::error::Error>>;
 
@@ -118,7 +119,7 @@ pub fn speed_vs_error(rows: &[Row], stem: &Path) -> Result<Vec<PathBuf>> {
     .map(|(label, rs)| SpeedError {
         label,
         rmse: rs.iter().map(|r| r.rmse.unwrap()).sum::<f64>() / rs.len() as f64,
-        mtets: median(rs.iter().map(|r| r.tets_per_s / 1e6).collect()),
+        mtets: median(&rs.iter().map(|r| r.tets_per_s / 1e6).collect::<Vec<_>>()),
     })
     .collect();
     if pts.is_empty() {
@@ -220,7 +221,7 @@ pub fn tets_per_s_vs_size(rows: &[Row], stem: &Path) -> Result<Vec<PathBuf>> {
             .map(|(_, d)| {
                 (
                     d[0].tets as f64,
-                    median(d.iter().map(|r| r.tets_per_s).collect()),
+                    median(&d.iter().map(|r| r.tets_per_s).collect::<Vec<_>>()),
                 )
             })
             .collect();
@@ -261,7 +262,7 @@ pub fn time_vs_viewport(rows: &[Row], stem: &Path) -> Result<Vec<PathBuf>> {
             .map(|((w, h), d)| {
                 (
                     ((w as f64) * (h as f64)).sqrt(),
-                    median(d.iter().map(|r| r.total_ms).collect()),
+                    median(&d.iter().map(|r| r.total_ms).collect::<Vec<_>>()),
                 )
             })
             .collect();
@@ -430,7 +431,7 @@ pub fn pair_errors(pairs: &[PairRow], stem: &Path) -> Result<Vec<PathBuf>> {
 pub fn stage_bars(rows: &[Row], stem: &Path, title: &str) -> Result<Vec<PathBuf>> {
     let mut groups = Vec::new();
     for (label, rs) in group(ok_rows(rows), |r| r.variant.clone()) {
-        let m = |f: fn(&Row) -> f64| median(rs.iter().map(|r| f(r)).collect());
+        let m = |f: fn(&Row) -> f64| median(&rs.iter().map(|r| f(r)).collect::<Vec<_>>());
         let (p, s, d, rb, t) = (
             m(|r| r.project_ms),
             m(|r| r.sort_ms),

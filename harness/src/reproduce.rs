@@ -13,85 +13,14 @@ use algorithms::render;
 use algorithms::{Error, Result};
 
 use crate::bcc;
-use crate::bench::{self, Outcome, Row};
+use crate::bench::{self, Outcome};
 use crate::experiment::{
     self, Config, DatasetSpec, OneOrMany, PairSpec, RendererSpec, RotateSpec, ViewsSpec,
 };
 use crate::plots;
-
-/// A finished table: header, rows, which columns depend on the hardware, notes.
-#[derive(Debug, Clone, Default)]
-pub struct Table {
-    pub id: String,
-    pub title: String,
-    pub columns: Vec<String>,
-    /// Parallel to `columns`: true where the value depends on the machine (times, rates).
-    pub hardware: Vec<bool>,
-    pub rows: Vec<Vec<String>>,
-    pub notes: Vec<String>,
-}
-
-impl Table {
-    fn col(&mut self, name: &str, hw: bool) {
-        self.columns.push(name.to_string());
-        self.hardware.push(hw);
-    }
-}
-
-/// Writes `DIR/<id>.csv` and `DIR/<id>.md`.
-pub fn write_table(t: &Table, dir: &Path, machine: &str, date: &str) -> Result<()> {
-    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    let csvp = dir.join(format!("{}.csv", t.id));
-    let mut w =
-        csv::Writer::from_path(&csvp).map_err(|e| Error::Io(format!("{}: {e}", csvp.display())))?;
-    let werr = |e: csv::Error| Error::Io(format!("{}: {e}", csvp.display()));
-    w.write_record(&t.columns).map_err(werr)?;
-    for r in &t.rows {
-        w.write_record(r).map_err(werr)?;
-    }
-    w.flush().map_err(|e| Error::io(&csvp, e))?;
-
-    let mut md = String::new();
-    let _ = writeln!(md, "# {}\n", t.title);
-    let _ = writeln!(md, "- machine: {machine}");
-    let _ = writeln!(md, "- date: {date}");
-    let _ = writeln!(
-        md,
-        "- columns marked † depend on the hardware (times and rates); the others (sizes, errors, bytes) do not.\n"
-    );
-    let head: Vec<String> = t
-        .columns
-        .iter()
-        .zip(&t.hardware)
-        .map(|(c, &h)| if h { format!("{c} †") } else { c.clone() })
-        .collect();
-    let _ = writeln!(md, "| {} |", head.join(" | "));
-    let _ = writeln!(md, "|{}", " --- |".repeat(head.len()));
-    for r in &t.rows {
-        let _ = writeln!(md, "| {} |", r.join(" | "));
-    }
-    if !t.notes.is_empty() {
-        md.push('\n');
-        for n in &t.notes {
-            let _ = writeln!(md, "- {n}");
-        }
-    }
-    let mdp = dir.join(format!("{}.md", t.id));
-    std::fs::write(&mdp, md).map_err(|e| Error::io(&mdp, e))
-}
-
-/// Links each PNG plot from the table's notes.
-fn plot_notes(table: &mut Table, plots: &[PathBuf]) {
-    for p in plots {
-        if p.extension().is_some_and(|e| e == "png") {
-            if let Some(n) = p.file_name() {
-                table
-                    .notes
-                    .push(format!("Plot: ![{0}]({0})", n.to_string_lossy()));
-            }
-        }
-    }
-}
+use crate::rows::Row;
+use crate::stats;
+use crate::table::{count, fixed as f, plot_notes, write_table, Table};
 
 /// What a spec is built with.
 pub struct Ctx {
@@ -328,14 +257,6 @@ fn base_config(ctx: &Ctx, name: &str) -> Config {
 // ---------------------------------------------------------------------------------------------
 // Formatting and aggregation.
 
-fn f(v: f64, digits: usize) -> String {
-    if v.is_finite() {
-        format!("{v:.digits$}")
-    } else {
-        "—".into()
-    }
-}
-
 fn rows_of<'a>(o: &'a Outcome, dataset: &str, variant: &str) -> Vec<&'a Row> {
     o.rows
         .iter()
@@ -359,18 +280,8 @@ struct Agg {
 }
 
 fn agg(rows: &[&Row]) -> Agg {
-    let mean = |g: &dyn Fn(&Row) -> f64| {
-        let v: Vec<f64> = rows
-            .iter()
-            .map(|r| g(r))
-            .filter(|x| x.is_finite())
-            .collect();
-        if v.is_empty() {
-            f64::NAN
-        } else {
-            v.iter().sum::<f64>() / v.len() as f64
-        }
-    };
+    let mean =
+        |g: &dyn Fn(&Row) -> f64| stats::mean(&rows.iter().map(|r| g(r)).collect::<Vec<_>>());
     // The papers average over a rotating model: mean frame time over the views.
     let ms = mean(&|r| r.total_ms);
     let tets = rows.first().map(|r| r.tets).unwrap_or(0);
@@ -416,14 +327,6 @@ pub fn glob(pattern: &str, s: &str) -> bool {
             let s = &s[head.len()..];
             (0..=s.len()).any(|i| s.is_char_boundary(i) && glob(rest, &s[i..]))
         }
-    }
-}
-
-fn count(n: usize) -> String {
-    if n >= 1_000_000 {
-        format!("{:.2} M", n as f64 / 1e6)
-    } else {
-        format!("{:.1} K", n as f64 / 1e3)
     }
 }
 
@@ -1400,13 +1303,7 @@ pub fn run(quick: bool, out: &Path, only: &[String]) -> Result<()> {
     if selected(JBU_ID) {
         // The JBU paper's Fig. 3/4 and 5: its own experiment, with its own table layout.
         let t0 = Instant::now();
-        crate::jbu::run(&crate::jbu::JbuArgs {
-            quick,
-            out: out.to_path_buf(),
-            datasets: None,
-            renderers: None,
-            repeats: 1,
-        })?;
+        crate::jbu::run(&crate::jbu::Plan::new(quick), out)?;
         write_status(
             out,
             JBU_ID,

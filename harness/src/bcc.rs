@@ -2,9 +2,9 @@
 //!
 //! - `bcc_pt` — CC against BCC at equal information (paper §4, Fig. 10): the same analytic
 //!   field sampled on a `cc5`/`cc6` lattice of spacing `h` and on a BCC lattice of primary
-//!   spacing `√2·h` over the same box (29.3 % fewer samples per volume), rendered by `cpu-pt`
-//!   with the `bcc-implicit` traversal and the same transfer function; time, tets, bytes per
-//!   tet and the CONVENTIONS §6 errors against a ground truth that ray-integrates the analytic
+//!   spacing `√2·h` over the same box (29.3 % fewer samples per volume), rendered by every
+//!   projected-tetrahedra renderer that takes the `bcc-implicit` traversal, with it and the
+//!   same transfer function; time, tets, bytes per tet and the CONVENTIONS §6 errors against a ground truth that ray-integrates the analytic
 //!   field over the mesh's own domain ([`algorithms::bcc_recon::ground_truth`], `exact`
 //!   integrator, fine step). Plus empty-space skipping (`bcc-implicit-skip`) on a sparse
 //!   transfer function: time with and without, and whether the image is the same.
@@ -25,7 +25,7 @@ use algorithms::image::Image;
 use algorithms::mesh::Aabb;
 use algorithms::metrics::{compare, ImageError};
 use algorithms::optics::integrator;
-use algorithms::render::{self, Frame, RenderOptions};
+use algorithms::render::{self, Family, Frame, RenderOptions};
 use algorithms::tf::{TfPoint, TransferFunction};
 use algorithms::{alloc, Mesh, Result};
 use datasets_gen::fields;
@@ -295,12 +295,15 @@ fn errors(images: &[Image], truth: &[Image]) -> Result<ImageError> {
     Ok(mean_err(&e))
 }
 
-/// `sort` if `renderer` takes it, else its default.
-fn sort_for(renderer: &str, sort: &'static str) -> Option<&'static str> {
-    render::info(renderer)
-        .ok()
-        .filter(|i| i.sorts.contains(&sort))
-        .map(|_| sort)
+/// The projected-tetrahedra renderers of the registry that take the lattice order
+/// (`bcc-implicit`), the table's subject: CPU ones first.
+pub fn lattice_renderers() -> Vec<&'static str> {
+    let mut v: Vec<&render::RendererInfo> = render::family(Family::Pt)
+        .into_iter()
+        .filter(|r| r.sorts.contains(&"bcc-implicit") && r.sorts.contains(&"bcc-implicit-skip"))
+        .collect();
+    v.sort_by_key(|r| r.needs_gpu);
+    v.into_iter().map(|r| r.name).collect()
 }
 
 /// `bcc_pt`: CC vs BCC with projected tetrahedra, and empty-space skipping.
@@ -329,22 +332,23 @@ pub fn pt_table(quick: bool, dir: &Path) -> Result<(Table, Vec<PathBuf>)> {
     let mut skip_notes = Vec::new();
     let dense = dense_tf();
     let sparse = sparse_tf();
-    let renderers: Vec<&str> = ["cpu-pt", "hapt"]
-        .into_iter()
-        .filter(|r| render::info(r).is_ok())
-        .collect();
+    let renderers = lattice_renderers();
+    // The skipping study and the summary notes use the first (a CPU one when there is one).
+    let base = *renderers.first().ok_or_else(|| {
+        algorithms::Error::Input("bcc_pt: no renderer takes the sort bcc-implicit".into())
+    })?;
     for (fname, f) in FIELDS {
         let lattices = meshes(&sz, f)?;
-        // cpu-pt, and hapt when it is registered (with bcc-implicit if it takes it); on the
-        // shell also the sparse TF without and with skipping.
+        // Every lattice renderer with the dense TF; on the shell also the sparse TF without
+        // and with skipping (the first renderer).
         let mut specs: Vec<(usize, &str, &TransferFunction, Option<&str>)> = Vec::new();
         for m in 0..lattices.len() {
             for &r in &renderers {
-                specs.push((m, r, &dense, sort_for(r, "bcc-implicit")));
+                specs.push((m, r, &dense, Some("bcc-implicit")));
             }
             if fname == "shell" {
-                specs.push((m, "cpu-pt", &sparse, Some("bcc-implicit")));
-                specs.push((m, "cpu-pt", &sparse, Some("bcc-implicit-skip")));
+                specs.push((m, base, &sparse, Some("bcc-implicit")));
+                specs.push((m, base, &sparse, Some("bcc-implicit-skip")));
             }
         }
         let mut cases = Vec::new();
@@ -387,7 +391,7 @@ pub fn pt_table(quick: bool, dir: &Path) -> Result<(Table, Vec<PathBuf>)> {
                 row.extend(err_cols(&e));
                 t.rows.push(row);
                 if tfn.name == "default" {
-                    let who = if rname == "cpu-pt" {
+                    let who = if rname == base {
                         String::new()
                     } else {
                         format!(" {rname}")
@@ -397,7 +401,7 @@ pub fn pt_table(quick: bool, dir: &Path) -> Result<(Table, Vec<PathBuf>)> {
                         rmse: e.rmse,
                         time_ms: time,
                     });
-                    if rname == "cpu-pt" {
+                    if rname == base {
                         summary.push((lname.to_string(), fname.to_string(), time, e.rmse));
                     }
                 }
@@ -466,7 +470,10 @@ pub fn pt_table(quick: bool, dir: &Path) -> Result<(Table, Vec<PathBuf>)> {
     let plots = plots::time_vs_error(
         &pts,
         &dir.join("bcc_pt-time_vs_error"),
-        "CC vs BCC at equal information: cpu-pt time against error",
+        &format!(
+            "CC vs BCC at equal information: {} time against error",
+            renderers.join(", ")
+        ),
     )?;
     Ok((t, plots))
 }
@@ -612,12 +619,9 @@ mod tests {
     fn quick_tables_have_their_rows_and_skipping_keeps_the_image() {
         let dir = tempfile_dir();
         let (t, plots) = pt_table(true, &dir).unwrap();
-        // 2 fields × 3 lattices per renderer (cpu-pt, hapt when registered), plus 2 sparse
-        // cpu-pt rows per lattice on the shell.
-        let renderers = ["cpu-pt", "hapt"]
-            .iter()
-            .filter(|r| render::info(r).is_ok())
-            .count();
+        // 2 fields × 3 lattices per lattice renderer, plus 2 sparse rows per lattice on the
+        // shell.
+        let renderers = lattice_renderers().len();
         assert_eq!(t.rows.len(), 6 * renderers + 6);
         assert!(plots.iter().all(|p| p.exists()));
         let skip: Vec<&String> = t

@@ -275,17 +275,64 @@ fn render_cmd(args: &RenderArgs) -> Result<()> {
 fn list() {
     println!("renderers:");
     for r in render::REGISTRY {
-        println!("  {:<12} {}", r.name, r.description);
+        println!(
+            "  {:<12} {} [{}{}]",
+            r.name,
+            r.description,
+            r.family.name(),
+            if r.needs_gpu { ", GPU" } else { "" }
+        );
         if !r.sorts.is_empty() {
-            println!("  {:<12}   sorts: {}", "", r.sorts.join(", "));
+            println!(
+                "  {:<12}   sorts: {} (default {})",
+                "",
+                r.sorts.join(", "),
+                r.default_sort
+            );
         }
-        println!("  {:<12}   integrators: {}", "", r.integrators.join(", "));
+        if render::is_wrapper(r.name) {
+            println!("  {:<12}   integrators: {}", "", r.integrators.join(", "));
+        } else {
+            println!(
+                "  {:<12}   integrators: {} (default {})",
+                "",
+                r.integrators.join(", "),
+                r.default_integrator
+            );
+        }
+        for p in r.params {
+            let default = if p.default.is_empty() {
+                String::new()
+            } else {
+                format!(" (default {})", p.default)
+            };
+            println!("  {:<12}   param {}: {}{default}", "", p.name, p.doc);
+        }
     }
-    println!(
-        "sorts: {} (bucket:N for N depth slabs)",
-        algorithms::sort::SORTS.join(", ")
-    );
-    println!("integrators: {}", optics::INTEGRATORS.join(", "));
+    println!("sorts:");
+    for s in algorithms::sort::REGISTRY {
+        let arg = s
+            .params
+            .first()
+            .map(|p| format!(":{}", p.name))
+            .unwrap_or_default();
+        println!("  {:<20} {}", format!("{}{arg}", s.name), s.description);
+        for p in s.params {
+            println!(
+                "  {:<20}   {}: {} (default {})",
+                "", p.name, p.doc, p.default
+            );
+        }
+    }
+    println!("integrators:");
+    for i in optics::REGISTRY {
+        println!(
+            "  {:<12} {}{}",
+            i.name,
+            i.description,
+            if i.on_gpu { "" } else { " [CPU only]" }
+        );
+    }
     println!("transfer functions (presets): {}", tf::PRESETS.join(", "));
     // What the GPU renderers would run on (TETBENCH_ADAPTER=<index or name part> picks one).
     let adapters = algorithms::gpu::adapters();

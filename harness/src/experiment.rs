@@ -459,7 +459,7 @@ pub fn expand_renderer(r: &RendererSpec) -> Result<Vec<Variant>> {
         Some(v) if v.iter().any(|s| s == "*") => info
             .sorts
             .iter()
-            .filter(|s| !algorithms::sort::LATTICE_SORTS.contains(s))
+            .filter(|s| !algorithms::sort::info(s).is_ok_and(|i| i.lattice_only))
             .map(|s| Some(s.to_string()))
             .collect(),
         Some(v) if v.is_empty() => vec![None],

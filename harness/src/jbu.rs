@@ -20,7 +20,7 @@ use std::path::Path;
 use algorithms::camera::{Camera, Projection, View};
 use algorithms::image::Image;
 use algorithms::jbu::{low_camera, Method, Params, Upsampler};
-use algorithms::render::{self, RenderOptions, Renderer};
+use algorithms::render::{self, Family, RenderOptions, Renderer};
 use algorithms::{metrics, Error, Mesh, Result, TransferFunction};
 
 use crate::measure::{measure, Frames};
@@ -41,10 +41,13 @@ pub struct Plan {
 
 impl Plan {
     pub fn new(quick: bool) -> Plan {
+        // Every renderer of the papers' families (the exact reference is the yardstick, not a
+        // contender; wrappers and external programs are not upsampled).
         let renderers = render::REGISTRY
             .iter()
+            .filter(|r| matches!(r.family, Family::Pt | Family::RayCasting))
             .map(|r| r.name)
-            .filter(|n| *n != "reference" && !render::is_wrapper(n))
+            .filter(|n| *n != "reference")
             .map(String::from)
             .collect();
         let (datasets, full, lows): (&[&str], u32, Vec<u32>) = if quick {

@@ -94,7 +94,7 @@ pub fn resolve(name: &str, base: &Path) -> Result<Source> {
                 .collect();
             Err(Error::Input(format!(
                 "{name}: no such file, and not a dataset name{} (see `tetbench list`)",
-                algorithms::names::did_you_mean(gen, &known)
+                algorithms::plugin::did_you_mean(gen, &known)
             )))
         }
     }

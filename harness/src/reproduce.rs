@@ -9,7 +9,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use algorithms::render;
+use algorithms::render::{self, Family};
 use algorithms::{Error, Result};
 
 use crate::bcc;
@@ -152,23 +152,18 @@ fn software_gpu() -> bool {
         .unwrap_or(false)
 }
 
-/// Projected-tetrahedra renderers (PTINT's family) with partial pre-integration. With
-/// `all_sorts` every sort of `hapt` and `cpu-pt`; `ptint` keeps its own, the centroid sort (its
-/// CPU sort variants are `cpu-pt`'s, and on a software GPU each extra row costs seconds).
+/// Projected-tetrahedra renderers (PTINT's family, every renderer the registry files under
+/// [`Family::Pt`]) with partial pre-integration. With `all_sorts`, each with the sorts its entry
+/// asks the papers' algorithm tables to measure (`table_sorts`); else with its default sort.
+/// GPU renderers are capped on a software adapter.
 fn pt_family(all_sorts: bool) -> Vec<RendererSpec> {
     let cap = software_gpu().then_some(SOFTWARE_GPU_MAX_TETS);
-    ["ptint", "hapt", "cpu-pt"]
-        .iter()
-        .filter_map(|n| {
-            // HAPT's own rows: GPU radix (for its GPU quicksort), GPU bitonic, a CPU sort, MPVONC.
-            let sorts: &[&str] = match (*n, all_sorts) {
-                (_, false) => &[],
-                ("ptint", true) => &["centroid"],
-                ("hapt", true) => &["gpu-radix", "gpu-bitonic", "centroid", "mpvonc"],
-                _ => &["*"],
-            };
-            let mut r = want(n, sorts, &["partial"])?;
-            if *n != "cpu-pt" {
+    render::family(Family::Pt)
+        .into_iter()
+        .filter_map(|info| {
+            let sorts: &[&str] = if all_sorts { info.table_sorts } else { &[] };
+            let mut r = want(info.name, sorts, &["partial"])?;
+            if info.needs_gpu {
                 r.max_tets = cap;
             }
             Some(r)
@@ -176,14 +171,19 @@ fn pt_family(all_sorts: bool) -> Vec<RendererSpec> {
         .collect()
 }
 
-/// The ray caster standing in for HARC (normal pre-integration) and HARC PPI (partial).
+/// The ray casters (HARC's family, the exact `reference` left out) standing in for HARC
+/// (normal pre-integration) and HARC PPI (partial).
 fn ray_casters(preint_too: bool) -> Vec<RendererSpec> {
     let ints: &[&str] = if preint_too {
         &["partial", "preint"]
     } else {
         &["partial"]
     };
-    want("raycast", &[], ints).into_iter().collect()
+    render::family(Family::RayCasting)
+        .into_iter()
+        .filter(|i| i.name != "reference")
+        .filter_map(|i| want(i.name, &[], ints))
+        .collect()
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -700,15 +700,15 @@ const HAPT_T1: [(&str, &str, &str, &str); 6] = [
     ("fighter", "1.569%", "0.3943%", "2.02%"),
 ];
 
-/// The first registered renderer that takes both `centroid` and `mpvonc`.
+/// The first projected-tetrahedra renderer that takes both `centroid` and `mpvonc`, CPU ones
+/// first: the two orders' images differ the same way on any PT renderer, and a CPU one is the
+/// fastest to run 100 views with on a machine without a GPU.
 fn centroid_mpvonc_renderer() -> Option<&'static str> {
-    // cpu-pt first: the two orders' images differ the same way on any PT renderer, and the
-    // CPU one is the fastest to run 100 views with on a machine without a GPU.
-    ["cpu-pt", "hapt", "ptint"].into_iter().find(|n| {
-        render::info(n)
-            .map(|i| i.sorts.contains(&"centroid") && i.sorts.contains(&"mpvonc"))
-            .unwrap_or(false)
-    })
+    let mut pt = render::family(Family::Pt);
+    pt.sort_by_key(|i| i.needs_gpu);
+    pt.into_iter()
+        .find(|i| i.sorts.contains(&"centroid") && i.sorts.contains(&"mpvonc"))
+        .map(|i| i.name)
 }
 
 fn hapt_t1_exp(ctx: &Ctx) -> std::result::Result<Config, String> {
@@ -1199,9 +1199,10 @@ fn write_status(out: &Path, id: &str, line: &str) -> Result<()> {
 
 /// The GPU adapter the GPU renderers use, when one of them is registered and an adapter exists.
 fn gpu_line() -> Option<String> {
-    let gpu_renderers: Vec<&str> = render::names()
-        .into_iter()
-        .filter(|n| ["ptint", "hapt"].contains(n))
+    let gpu_renderers: Vec<&str> = render::REGISTRY
+        .iter()
+        .filter(|r| r.needs_gpu)
+        .map(|r| r.name)
         .collect();
     if gpu_renderers.is_empty() {
         return None;

@@ -45,7 +45,7 @@ pub trait Integrator: Send + Sync {
 pub struct IntegratorInfo {
     pub name: &'static str,
     pub description: &'static str,
-    /// Whether the GPU renderers have it (their tables: `crate::gpu::optics`).
+    /// Whether the GPU renderers have it (their tables are in the gpu module).
     pub on_gpu: bool,
     pub make: fn(&TransferFunction) -> Box<dyn Integrator>,
 }

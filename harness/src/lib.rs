@@ -4,7 +4,7 @@
 //!   `meshes` (where meshes come from), `progress`, `sysinfo`;
 //! - `measure` (the one frame-timing loop), `plots`, `experiment` (experiment files);
 //! - `bench` (running an experiment), `jbu`, `bcc` (their own experiments);
-//! - `reproduce` (the papers' tables); `cli` (clap, turned into the plain types above) and
+//! - `papers` (the papers' tables, one file per paper), `reproduce` (the loop over them); `cli` (clap, turned into the plain types above) and
 //!   `commands` (the subcommands), which nothing else uses.
 
 pub mod bcc;
@@ -15,6 +15,7 @@ pub mod experiment;
 pub mod jbu;
 pub mod measure;
 pub mod meshes;
+pub mod papers;
 pub mod plots;
 pub mod progress;
 pub mod reproduce;

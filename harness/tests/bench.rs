@@ -281,7 +281,7 @@ fn table_writer_writes_csv_and_markdown() {
 
 #[test]
 fn reproduce_specs_cover_the_papers_tables() {
-    let ids: Vec<&str> = tetbench::reproduce::specs().iter().map(|s| s.id).collect();
+    let ids = tetbench::papers::ids();
     for want in [
         "ptint-table1",
         "ptint-table2",

@@ -10,6 +10,7 @@
 //! | `centroid-radix` | the same order, stable LSD radix sort on the keys' bits | O(n) |
 //! | `bucket[:N]` | PTINT's N depth slabs (default 20), index order inside a slab | O(n) |
 //! | `mpvonc` | Williams' MPVONC: topological sort of the face-adjacency DAG | O(n) |
+//! | `xmpvo` | MPVONC's DAG plus the per-pixel boundary order across empty space: exact at image resolution when acyclic ([`xmpvo`]) | O(n + boundary fragments) |
 //! | `bcc-implicit` | lattice meshes only (`bcc`, `cc5`, `cc6`), ortho: back-to-front traversal of the lattice, no sort ([`lattice`]) | O(n) |
 //! | `bcc-implicit-skip` | the same, leaving out tets transparent under the transfer function (empty-space skipping) | O(visible) |
 //!
@@ -31,12 +32,14 @@ mod centroid;
 pub mod lattice;
 mod mpvonc;
 mod radix;
+mod xmpvo;
 
 pub use bucket::BucketSort;
 pub use centroid::CentroidSort;
 pub use lattice::LatticeSort;
 pub use mpvonc::Mpvonc;
 pub use radix::RadixSort;
+pub use xmpvo::Xmpvo;
 
 /// What a sort reports about one frame.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -54,6 +57,11 @@ pub struct SortStats {
     /// Interior faces that gave no constraint: zero area, or the eye in (or, in ortho, the view
     /// direction parallel to) their plane (MPVONC).
     pub unconstrained_faces: usize,
+    /// Distinct constraints across empty space from the per-pixel boundary order (XMPVO).
+    pub exterior_edges: usize,
+    /// Pixels whose boundary crossings do not alternate entry, exit (open or non-manifold
+    /// boundary, overlapping cells): all their consecutive pairs are kept (XMPVO).
+    pub irregular_pixels: usize,
 }
 
 /// A visibility sort.
@@ -78,12 +86,13 @@ pub trait Sort: Send {
 pub const SORTS: &[&str] = &CPU_SORTS;
 
 /// [`SORTS`] as an array, for renderers that list other sorts beside them ([`with_sorts`]).
-pub const CPU_SORTS: [&str; 7] = [
+pub const CPU_SORTS: [&str; 8] = [
     "centroid",
     "centroid-par",
     "centroid-radix",
     "bucket",
     "mpvonc",
+    "xmpvo",
     "bcc-implicit",
     "bcc-implicit-skip",
 ];
@@ -133,6 +142,7 @@ pub fn make(name: &str) -> Result<Box<dyn Sort>> {
         "centroid-radix" => Box::new(RadixSort::default()),
         "bucket" => Box::new(BucketSort::new(DEFAULT_SLABS)),
         "mpvonc" => Box::new(Mpvonc::default()),
+        "xmpvo" => Box::new(Xmpvo::default()),
         "bcc-implicit" => Box::new(LatticeSort::new(false)),
         "bcc-implicit-skip" => Box::new(LatticeSort::new(true)),
         _ => {

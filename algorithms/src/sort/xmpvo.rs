@@ -7,9 +7,10 @@
 //!
 //! **Setup** ([`Sort::prepare`]). As `mpvonc`: every interior face's plane (unit normal from tet
 //! `a` into tet `b`, offset, the two tets; 24 bytes per interior face) and the f32 centroids.
-//! Also the boundary surface: each boundary face's three vertices and its tet (16 bytes a face)
-//! and the centred f32 positions of the boundary vertices (12 bytes each), the very numbers
-//! `cpu-pt` projects.
+//! Also the boundary surface: each boundary face's three vertices, its tet and the tet's sign
+//! (20 bytes a face; the sign from the tet's signed volume, 0 below `Mesh::degenerate_tets`'
+//! threshold) and the centred f32 positions of the boundary vertices (12 bytes each), the very
+//! numbers `cpu-pt` projects.
 //!
 //! **Per frame.**
 //! 1. *Interior faces*, oriented as in `mpvonc`: `s = n · eye − d` (persp) or `s = n · to_eye`
@@ -48,7 +49,7 @@
 //! `Error::Input` naming its size.
 //!
 //! **Memory.** Prepared: ~48 bytes a tet of interior faces, 12 of centroids, 5 of in-degree and
-//! edge bits, plus 16 a boundary face and 12 a boundary vertex. Per frame: 4 bytes a tet (CSR
+//! edge bits, plus 20 a boundary face and 12 a boundary vertex. Per frame: 4 bytes a tet (CSR
 //! offsets), 4 an exterior edge, and the rasteriser's per-band hit lists (24 bytes a hit).
 
 mod exterior;
@@ -56,7 +57,7 @@ mod exterior;
 use super::{centroids, check_prepared, f32x3, sort_desc_by_key, KeyFn, Sort, SortStats};
 use crate::camera::{Camera, Projection};
 use crate::error::{Error, Result};
-use crate::mesh::{Mesh, BOUNDARY};
+use crate::mesh::{signed_volume6, Mesh, BOUNDARY};
 use exterior::{exterior, BoundaryFace};
 
 /// The plane of one interior face between tets `a` and `b`; `n` points from `a` into `b`.
@@ -149,8 +150,9 @@ impl Sort for Xmpvo {
             }
         }
         // The boundary surface, with cpu-pt's f32 centred positions.
-        let vol_eps = 1e-14 * l * l * l;
-        let vols = mesh.volumes();
+        // Six times the volume, the threshold of `Mesh::degenerate_tets`; computed for the
+        // boundary tets only (the mesh's cached volumes would cost 8 bytes a tet).
+        let vol_eps = 6e-14 * l * l * l;
         let mut map = vec![u32::MAX; mesh.num_vertices()];
         self.bpos.clear();
         self.bfaces.clear();
@@ -164,7 +166,7 @@ impl Sort for Xmpvo {
                 }
                 *m
             });
-            let vol = vols[t];
+            let vol = signed_volume6(mesh.tet_points(t).map(|q| q - c));
             let sign = if vol.abs() < vol_eps || vol == 0.0 {
                 0
             } else if vol > 0.0 {

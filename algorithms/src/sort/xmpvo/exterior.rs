@@ -232,8 +232,11 @@ fn is_regular(px: &[Hit]) -> bool {
     expect == ENTRY
 }
 
-/// Relative depth difference under which two crossings count as one point of the ray.
-const TIE: f64 = 1e-6;
+/// Relative depth difference under which two crossings count as one point of the ray (≈1e-4·L).
+/// Measured on the NASA post grid at 128², 50 views: with 1e-6, 8–34 pixels per view stayed
+/// irregular (faces that should meet but are apart by more, at the grid's seams) and made up to
+/// 8 false cycles; with 1e-4, none.
+const TIE: f64 = 1e-4;
 
 /// Swaps an entry followed by an exit of another cell at a depth within [`TIE`] (relative) of
 /// it: two faces that meet there (a seam of duplicate vertices whose coordinates differ by

@@ -10,6 +10,7 @@
 //! | `centroid-radix` | the same order, stable LSD radix sort on the keys' bits | O(n) |
 //! | `bucket[:N]` | PTINT's N depth slabs (default 20), index order inside a slab | O(n) |
 //! | `mpvonc` | Williams' MPVONC: topological sort of the face-adjacency DAG | O(n) |
+//! | `xmpvo` | MPVONC's DAG plus the per-pixel boundary order across empty space: exact at image resolution when acyclic ([`xmpvo`]) | O(n + boundary fragments) |
 //! | `bcc-implicit` | lattice meshes only (`bcc`, `cc5`, `cc6`), ortho: back-to-front traversal of the lattice, no sort ([`lattice`]) | O(n) |
 //! | `bcc-implicit-skip` | the same, leaving out tets transparent under the transfer function (empty-space skipping) | O(visible) |
 //!
@@ -32,6 +33,7 @@ pub use centroid::CentroidSort;
 pub use lattice::LatticeSort;
 pub use mpvonc::Mpvonc;
 pub use radix::RadixSort;
+pub use xmpvo::Xmpvo;
 
 /// A sort's registry entry: declared in the sort's own file, listed once in [`REGISTRY`].
 pub struct SortInfo {
@@ -66,6 +68,7 @@ registry! {
     radix => [CENTROID_RADIX],
     bucket => [BUCKET],
     mpvonc => [MPVONC],
+    xmpvo => [XMPVO],
     pub lattice => [BCC_IMPLICIT, BCC_IMPLICIT_SKIP],
 }
 
@@ -85,6 +88,11 @@ pub struct SortStats {
     /// Interior faces that gave no constraint: zero area, or the eye in (or, in ortho, the view
     /// direction parallel to) their plane (MPVONC).
     pub unconstrained_faces: usize,
+    /// Distinct constraints across empty space from the per-pixel boundary order (XMPVO).
+    pub exterior_edges: usize,
+    /// Pixels whose boundary crossings do not alternate entry, exit (open or non-manifold
+    /// boundary, overlapping cells): all their consecutive pairs are kept (XMPVO).
+    pub irregular_pixels: usize,
 }
 
 /// A visibility sort.

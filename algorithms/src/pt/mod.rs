@@ -33,7 +33,7 @@
 
 mod raster;
 
-pub use raster::{raster_fan, FanGeometry, Fragment};
+pub use raster::{raster_fan, raster_fan_spans, FanGeometry, Fragment, Span};
 
 use glam::DVec3;
 

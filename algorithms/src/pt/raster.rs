@@ -40,21 +40,7 @@ impl FanGeometry {
     /// line of v's set (from v's partner), else from the thick vertex (a snapped vertex).
     #[inline]
     fn dir_from_thick(&self, v: usize) -> [i64; 2] {
-        let c = self.case;
-        let anchor = if c.class == 2 {
-            let set = if c.side_a & (1 << v) != 0 {
-                c.side_a
-            } else {
-                c.side_b
-            };
-            (set & !(1 << v)).trailing_zeros() as usize
-        } else {
-            c.side_a.trailing_zeros() as usize
-        };
-        [
-            self.q[v][0] - self.q[anchor][0],
-            self.q[v][1] - self.q[anchor][1],
-        ]
+        dir_from_thick(self.case, &self.q, v)
     }
 
     /// Pixel bounding box (inclusive) of the silhouette.
@@ -73,6 +59,23 @@ impl FanGeometry {
             last_centre(hi[1]),
         ]
     }
+}
+
+/// Direction of the fan edge from the thick vertex towards vertex `v` (see
+/// [`FanGeometry::dir_from_thick`]).
+#[inline]
+fn dir_from_thick(c: &Case, q: &[[i64; 2]; 4], v: usize) -> [i64; 2] {
+    let anchor = if c.class == 2 {
+        let set = if c.side_a & (1 << v) != 0 {
+            c.side_a
+        } else {
+            c.side_b
+        };
+        (set & !(1 << v)).trailing_zeros() as usize
+    } else {
+        c.side_a.trailing_zeros() as usize
+    };
+    [q[v][0] - q[anchor][0], q[v][1] - q[anchor][1]]
 }
 
 /// Index of the first pixel whose centre is ≥ `x` (snapped units).
@@ -195,6 +198,129 @@ pub fn raster_fan(g: &FanGeometry, clip: [i64; 4], mut f: impl FnMut(Fragment)) 
                 v[1] += st[1];
                 v[2] += st[2];
             }
+        }
+    }
+}
+
+/// One row span of a fan triangle: the covered centres `i0..=i1` of row `j` (never empty), with
+/// the barycentric weights of [`Fragment`] at `i0` and their steps per pixel to the right, so
+/// that pixel `i0 + k` has `lx + k·dlx`, `ly + k·dly`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Span {
+    pub tri: usize,
+    pub j: i64,
+    pub i0: i64,
+    pub i1: i64,
+    pub lx: f64,
+    pub ly: f64,
+    pub dlx: f64,
+    pub dly: f64,
+}
+
+/// The same coverage as [`raster_fan`], one call per row span instead of one per pixel: per
+/// row, each edge function `E(i0 + k) = v + k·st` bounds k from one side, found from an f64
+/// estimate `−v/st` corrected by exact integer tests (so the fill rule is the same bit for bit),
+/// instead of testing every pixel of the bounding box. Reads `case` and `q` only (not the
+/// thick vertex's float position: for class 2 the bounding box of a fan triangle is taken with
+/// set A's edge, on which the thick vertex lies).
+#[inline]
+pub fn raster_fan_spans(c: &Case, q: &[[i64; 2]; 4], clip: [i64; 4], mut f: impl FnMut(Span)) {
+    if !c.drawn() {
+        return;
+    }
+    // The thick vertex's box: a vertex, or (class 2) the box of edge A, which contains it.
+    let a0 = c.side_a.trailing_zeros() as usize;
+    let (tlo, thi) = if c.class == 2 {
+        let a1 = (c.side_a & !(1 << a0)).trailing_zeros() as usize;
+        (
+            [q[a0][0].min(q[a1][0]), q[a0][1].min(q[a1][1])],
+            [q[a0][0].max(q[a1][0]), q[a0][1].max(q[a1][1])],
+        )
+    } else {
+        (q[a0], q[a0])
+    };
+    for tri in 0..c.ntri as usize {
+        let (xv, yv) = (c.fan[tri] as usize, c.fan[tri + 1] as usize);
+        let (x, y) = (q[xv], q[yv]);
+        let dx = dir_from_thick(c, q, xv);
+        let dy = dir_from_thick(c, q, yv);
+        let e = [
+            Edge::new(x, dx),
+            Edge::new(x, [y[0] - x[0], y[1] - x[1]]),
+            Edge::new(y, [-dy[0], -dy[1]]),
+        ];
+        let n_y = e[0].at(y);
+        let n_x = e[2].at(x);
+        if n_y <= 0 || n_x <= 0 {
+            continue; // cannot happen for a table entry on exact tests
+        }
+        let (inv_x, inv_y) = (1.0 / n_x as f64, 1.0 / n_y as f64);
+        let ia = first_centre(x[0].min(y[0]).min(tlo[0])).max(clip[0]);
+        let j0 = first_centre(x[1].min(y[1]).min(tlo[1])).max(clip[1]);
+        let ib = last_centre(x[0].max(y[0]).max(thi[0])).min(clip[2]);
+        let j1 = last_centre(x[1].max(y[1]).max(thi[1])).min(clip[3]);
+        if ia > ib || j0 > j1 {
+            continue;
+        }
+        let n = ib - ia; // the last k
+        // Per pixel in x the edge functions step by −d.y·S, per row by d.x·S.
+        let st = e.map(|e| -e.d[1] * SUBPIXEL);
+        let sr = e.map(|e| e.d[0] * SUBPIXEL);
+        let inv_st = st.map(|s| if s != 0 { 1.0 / s as f64 } else { 0.0 });
+        let p = [pixel_centre(ia), pixel_centre(j0)];
+        let mut v = [
+            e[0].at(p) + e[0].bias,
+            e[1].at(p) + e[1].bias,
+            e[2].at(p) + e[2].bias,
+        ];
+        for j in j0..=j1 {
+            let (mut lo, mut hi) = (0i64, n);
+            for m in 0..3 {
+                let (vm, s) = (v[m], st[m]);
+                let inside = |k: i64| vm + k * s > 0;
+                if s > 0 {
+                    // The first k with v + k·st > 0: −v/st < k.
+                    let est = (-(vm as f64) * inv_st[m]).clamp(-1.0, n as f64 + 1.0);
+                    let mut k = floor_i64(est) + 1;
+                    k = k.clamp(0, n + 1);
+                    while k > 0 && inside(k - 1) {
+                        k -= 1;
+                    }
+                    while k <= n && !inside(k) {
+                        k += 1;
+                    }
+                    lo = lo.max(k);
+                } else if s < 0 {
+                    // The last k with v + k·st > 0: k < v/(−st).
+                    let est = (-(vm as f64) * inv_st[m]).clamp(-1.0, n as f64 + 1.0);
+                    let mut k = ceil_i64(est) - 1;
+                    k = k.clamp(-1, n);
+                    while k < n && inside(k + 1) {
+                        k += 1;
+                    }
+                    while k >= 0 && !inside(k) {
+                        k -= 1;
+                    }
+                    hi = hi.min(k);
+                } else if vm <= 0 {
+                    hi = -1;
+                }
+            }
+            if lo <= hi {
+                f(Span {
+                    tri,
+                    j,
+                    i0: ia + lo,
+                    i1: ia + hi,
+                    lx: (v[2] - e[2].bias + lo * st[2]) as f64 * inv_x,
+                    ly: (v[0] - e[0].bias + lo * st[0]) as f64 * inv_y,
+                    dlx: st[2] as f64 * inv_x,
+                    dly: st[0] as f64 * inv_y,
+                });
+            }
+            v[0] += sr[0];
+            v[1] += sr[1];
+            v[2] += sr[2];
         }
     }
 }

@@ -202,29 +202,44 @@ pub fn raster_fan(g: &FanGeometry, clip: [i64; 4], mut f: impl FnMut(Fragment)) 
     }
 }
 
-/// One row span of a fan triangle: the covered centres `i0..=i1` of row `j` (never empty), with
-/// the barycentric weights of [`Fragment`] at `i0` and their steps per pixel to the right, so
-/// that pixel `i0 + k` has `lx + k·dlx`, `ly + k·dly`.
+/// One row of a fan triangle, for a caller that tests its pixels itself: a range
+/// `i0..=i1` of row `j` (clipped) that holds every covered centre of the row, with the three
+/// edge functions at `i0` (fill-rule bias included: pixel `i0 + k` is covered iff
+/// `v[m] + k·st[m] > 0` for all m) and the barycentric weights of [`Fragment`] at `i0` with
+/// their steps per pixel (`lx + k·dlx`, `ly + k·dly`).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Span {
+pub struct Row {
     pub tri: usize,
     pub j: i64,
     pub i0: i64,
     pub i1: i64,
+    pub v: [i64; 3],
+    pub st: [i64; 3],
     pub lx: f64,
     pub ly: f64,
     pub dlx: f64,
     pub dly: f64,
 }
 
-/// The same coverage as [`raster_fan`], one call per row span instead of one per pixel: per
-/// row, each edge function `E(i0 + k) = v + k·st` bounds k from one side, found from an f64
-/// estimate `−v/st` corrected by exact integer tests (so the fill rule is the same bit for bit),
-/// instead of testing every pixel of the bounding box. Reads `case` and `q` only (not the
-/// thick vertex's float position: for class 2 the bounding box of a fan triangle is taken with
-/// set A's edge, on which the thick vertex lies).
+impl Row {
+    /// Whether pixel `i0 + k` is covered.
+    #[inline(always)]
+    pub fn covers(&self, k: i64) -> bool {
+        (self.v[0] + k * self.st[0] > 0)
+            & (self.v[1] + k * self.st[1] > 0)
+            & (self.v[2] + k * self.st[2] > 0)
+    }
+}
+
+/// The rows of the fan for [`raster_fan`]'s coverage, narrowed per row: each edge bounds the
+/// covered centres from one side at `k ≈ −v/st`, an f64 estimate within 1 of the exact bound,
+/// so the range is the estimated span widened by 2 on each side; the caller's exact tests
+/// ([`Row::covers`]) then give the same centres as `raster_fan` (test), without testing the
+/// whole bounding box. Reads `case` and `q` only (not the thick vertex's float position: for
+/// class 2 the bounding box of a fan triangle is taken with set A's edge, on which the thick
+/// vertex lies). Rows with no covered centre may be skipped or not.
 #[inline]
-pub fn raster_fan_spans(c: &Case, q: &[[i64; 2]; 4], clip: [i64; 4], mut f: impl FnMut(Span)) {
+pub fn raster_fan_rows(c: &Case, q: &[[i64; 2]; 4], clip: [i64; 4], mut f: impl FnMut(Row)) {
     if !c.drawn() {
         return;
     }
@@ -262,11 +277,12 @@ pub fn raster_fan_spans(c: &Case, q: &[[i64; 2]; 4], clip: [i64; 4], mut f: impl
         if ia > ib || j0 > j1 {
             continue;
         }
-        let n = ib - ia; // the last k
-        // Per pixel in x the edge functions step by −d.y·S, per row by d.x·S.
+        let n = (ib - ia) as f64; // the last k
+                                  // Per pixel in x the edge functions step by −d.y·S, per row by d.x·S.
         let st = e.map(|e| -e.d[1] * SUBPIXEL);
         let sr = e.map(|e| e.d[0] * SUBPIXEL);
-        let inv_st = st.map(|s| if s != 0 { 1.0 / s as f64 } else { 0.0 });
+        // −1/st, and which side each edge bounds (+1: from below, −1: from above, 0: neither).
+        let ninv = st.map(|s| if s != 0 { -1.0 / s as f64 } else { 0.0 });
         let p = [pixel_centre(ia), pixel_centre(j0)];
         let mut v = [
             e[0].at(p) + e[0].bias,
@@ -274,49 +290,34 @@ pub fn raster_fan_spans(c: &Case, q: &[[i64; 2]; 4], clip: [i64; 4], mut f: impl
             e[2].at(p) + e[2].bias,
         ];
         for j in j0..=j1 {
-            let (mut lo, mut hi) = (0i64, n);
+            let (mut lo, mut hi) = (0.0f64, n);
             for m in 0..3 {
-                let (vm, s) = (v[m], st[m]);
-                let inside = |k: i64| vm + k * s > 0;
-                if s > 0 {
-                    // The first k with v + k·st > 0: −v/st < k.
-                    let est = (-(vm as f64) * inv_st[m]).clamp(-1.0, n as f64 + 1.0);
-                    let mut k = floor_i64(est) + 1;
-                    k = k.clamp(0, n + 1);
-                    while k > 0 && inside(k - 1) {
-                        k -= 1;
-                    }
-                    while k <= n && !inside(k) {
-                        k += 1;
-                    }
-                    lo = lo.max(k);
-                } else if s < 0 {
-                    // The last k with v + k·st > 0: k < v/(−st).
-                    let est = (-(vm as f64) * inv_st[m]).clamp(-1.0, n as f64 + 1.0);
-                    let mut k = ceil_i64(est) - 1;
-                    k = k.clamp(-1, n);
-                    while k < n && inside(k + 1) {
-                        k += 1;
-                    }
-                    while k >= 0 && !inside(k) {
-                        k -= 1;
-                    }
-                    hi = hi.min(k);
-                } else if vm <= 0 {
-                    hi = -1;
+                // Edge m is positive for k > −v/st (st > 0) or k < −v/st (st < 0).
+                let b = v[m] as f64 * ninv[m];
+                if st[m] > 0 {
+                    lo = lo.max(b - 1.0);
+                } else if st[m] < 0 {
+                    hi = hi.min(b + 1.0);
+                } else if v[m] <= 0 {
+                    hi = -1.0;
                 }
             }
             if lo <= hi {
-                f(Span {
-                    tri,
-                    j,
-                    i0: ia + lo,
-                    i1: ia + hi,
-                    lx: (v[2] - e[2].bias + lo * st[2]) as f64 * inv_x,
-                    ly: (v[0] - e[0].bias + lo * st[0]) as f64 * inv_y,
-                    dlx: st[2] as f64 * inv_x,
-                    dly: st[0] as f64 * inv_y,
-                });
+                let (k0, k1) = (floor_i64(lo), ceil_i64(hi).min(ib - ia));
+                if k0 <= k1 {
+                    f(Row {
+                        tri,
+                        j,
+                        i0: ia + k0,
+                        i1: ia + k1,
+                        v: [v[0] + k0 * st[0], v[1] + k0 * st[1], v[2] + k0 * st[2]],
+                        st,
+                        lx: (v[2] - e[2].bias + k0 * st[2]) as f64 * inv_x,
+                        ly: (v[0] - e[0].bias + k0 * st[0]) as f64 * inv_y,
+                        dlx: st[2] as f64 * inv_x,
+                        dly: st[0] as f64 * inv_y,
+                    });
+                }
             }
             v[0] += sr[0];
             v[1] += sr[1];

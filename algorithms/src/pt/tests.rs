@@ -424,25 +424,27 @@ fn thick_vertex_through_the_camera_ortho_and_persp() {
     assert!(checked > 1000, "{checked}");
 }
 
-/// The fragments of [`raster_fan_spans`], expanded per pixel.
+/// The fragments of [`raster_fan_rows`], tested per pixel.
 fn span_fragments(g: &FanGeometry, clip: [i64; 4]) -> Vec<Fragment> {
     let mut out = Vec::new();
-    raster_fan_spans(g.case, &g.q, clip, |s| {
+    raster_fan_rows(g.case, &g.q, clip, |s| {
         assert!(s.i0 <= s.i1 && s.i0 >= clip[0] && s.i1 <= clip[2]);
         for (k, i) in (s.i0..=s.i1).enumerate() {
-            out.push(Fragment {
-                i,
-                j: s.j,
-                tri: s.tri,
-                lx: s.lx + k as f64 * s.dlx,
-                ly: s.ly + k as f64 * s.dly,
-            });
+            if s.covers(k as i64) {
+                out.push(Fragment {
+                    i,
+                    j: s.j,
+                    tri: s.tri,
+                    lx: s.lx + k as f64 * s.dlx,
+                    ly: s.ly + k as f64 * s.dly,
+                });
+            }
         }
     });
     out
 }
 
-/// The span rasteriser covers exactly the centres the per-pixel one does, in the same
+/// The row rasteriser covers exactly the centres the per-pixel one does, in the same
 /// triangles, with the same barycentric weights (to rounding), on lattice, random and
 /// clipped fans.
 #[test]

@@ -33,7 +33,7 @@
 
 mod raster;
 
-pub use raster::{raster_fan, FanGeometry, Fragment};
+pub use raster::{raster_fan, raster_fan_rows, FanGeometry, Fragment, Row};
 
 use glam::DVec3;
 

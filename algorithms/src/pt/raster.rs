@@ -40,21 +40,7 @@ impl FanGeometry {
     /// line of v's set (from v's partner), else from the thick vertex (a snapped vertex).
     #[inline]
     fn dir_from_thick(&self, v: usize) -> [i64; 2] {
-        let c = self.case;
-        let anchor = if c.class == 2 {
-            let set = if c.side_a & (1 << v) != 0 {
-                c.side_a
-            } else {
-                c.side_b
-            };
-            (set & !(1 << v)).trailing_zeros() as usize
-        } else {
-            c.side_a.trailing_zeros() as usize
-        };
-        [
-            self.q[v][0] - self.q[anchor][0],
-            self.q[v][1] - self.q[anchor][1],
-        ]
+        dir_from_thick(self.case, &self.q, v)
     }
 
     /// Pixel bounding box (inclusive) of the silhouette.
@@ -73,6 +59,23 @@ impl FanGeometry {
             last_centre(hi[1]),
         ]
     }
+}
+
+/// Direction of the fan edge from the thick vertex towards vertex `v` (see
+/// [`FanGeometry::dir_from_thick`]).
+#[inline]
+fn dir_from_thick(c: &Case, q: &[[i64; 2]; 4], v: usize) -> [i64; 2] {
+    let anchor = if c.class == 2 {
+        let set = if c.side_a & (1 << v) != 0 {
+            c.side_a
+        } else {
+            c.side_b
+        };
+        (set & !(1 << v)).trailing_zeros() as usize
+    } else {
+        c.side_a.trailing_zeros() as usize
+    };
+    [q[v][0] - q[anchor][0], q[v][1] - q[anchor][1]]
 }
 
 /// Index of the first pixel whose centre is ≥ `x` (snapped units).
@@ -195,6 +198,130 @@ pub fn raster_fan(g: &FanGeometry, clip: [i64; 4], mut f: impl FnMut(Fragment)) 
                 v[1] += st[1];
                 v[2] += st[2];
             }
+        }
+    }
+}
+
+/// One row of a fan triangle, for a caller that tests its pixels itself: a range
+/// `i0..=i1` of row `j` (clipped) that holds every covered centre of the row, with the three
+/// edge functions at `i0` (fill-rule bias included: pixel `i0 + k` is covered iff
+/// `v[m] + k·st[m] > 0` for all m) and the barycentric weights of [`Fragment`] at `i0` with
+/// their steps per pixel (`lx + k·dlx`, `ly + k·dly`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Row {
+    pub tri: usize,
+    pub j: i64,
+    pub i0: i64,
+    pub i1: i64,
+    pub v: [i64; 3],
+    pub st: [i64; 3],
+    pub lx: f64,
+    pub ly: f64,
+    pub dlx: f64,
+    pub dly: f64,
+}
+
+impl Row {
+    /// Whether pixel `i0 + k` is covered.
+    #[inline(always)]
+    pub fn covers(&self, k: i64) -> bool {
+        (self.v[0] + k * self.st[0] > 0)
+            & (self.v[1] + k * self.st[1] > 0)
+            & (self.v[2] + k * self.st[2] > 0)
+    }
+}
+
+/// The rows of the fan for [`raster_fan`]'s coverage, narrowed per row: each edge bounds the
+/// covered centres from one side at `k ≈ −v/st`, an f64 estimate within 1 of the exact bound,
+/// so the range is the estimated span widened by 2 on each side; the caller's exact tests
+/// ([`Row::covers`]) then give the same centres as `raster_fan` (test), without testing the
+/// whole bounding box. Reads `case` and `q` only (not the thick vertex's float position: for
+/// class 2 the bounding box of a fan triangle is taken with set A's edge, on which the thick
+/// vertex lies). Rows with no covered centre may be skipped or not.
+#[inline]
+pub fn raster_fan_rows(c: &Case, q: &[[i64; 2]; 4], clip: [i64; 4], mut f: impl FnMut(Row)) {
+    if !c.drawn() {
+        return;
+    }
+    // The thick vertex's box: a vertex, or (class 2) the box of edge A, which contains it.
+    let a0 = c.side_a.trailing_zeros() as usize;
+    let (tlo, thi) = if c.class == 2 {
+        let a1 = (c.side_a & !(1 << a0)).trailing_zeros() as usize;
+        (
+            [q[a0][0].min(q[a1][0]), q[a0][1].min(q[a1][1])],
+            [q[a0][0].max(q[a1][0]), q[a0][1].max(q[a1][1])],
+        )
+    } else {
+        (q[a0], q[a0])
+    };
+    for tri in 0..c.ntri as usize {
+        let (xv, yv) = (c.fan[tri] as usize, c.fan[tri + 1] as usize);
+        let (x, y) = (q[xv], q[yv]);
+        let dx = dir_from_thick(c, q, xv);
+        let dy = dir_from_thick(c, q, yv);
+        let e = [
+            Edge::new(x, dx),
+            Edge::new(x, [y[0] - x[0], y[1] - x[1]]),
+            Edge::new(y, [-dy[0], -dy[1]]),
+        ];
+        let n_y = e[0].at(y);
+        let n_x = e[2].at(x);
+        if n_y <= 0 || n_x <= 0 {
+            continue; // cannot happen for a table entry on exact tests
+        }
+        let (inv_x, inv_y) = (1.0 / n_x as f64, 1.0 / n_y as f64);
+        let ia = first_centre(x[0].min(y[0]).min(tlo[0])).max(clip[0]);
+        let j0 = first_centre(x[1].min(y[1]).min(tlo[1])).max(clip[1]);
+        let ib = last_centre(x[0].max(y[0]).max(thi[0])).min(clip[2]);
+        let j1 = last_centre(x[1].max(y[1]).max(thi[1])).min(clip[3]);
+        if ia > ib || j0 > j1 {
+            continue;
+        }
+        let n = (ib - ia) as f64; // the last k
+                                  // Per pixel in x the edge functions step by −d.y·S, per row by d.x·S.
+        let st = e.map(|e| -e.d[1] * SUBPIXEL);
+        let sr = e.map(|e| e.d[0] * SUBPIXEL);
+        // −1/st, and which side each edge bounds (+1: from below, −1: from above, 0: neither).
+        let ninv = st.map(|s| if s != 0 { -1.0 / s as f64 } else { 0.0 });
+        let p = [pixel_centre(ia), pixel_centre(j0)];
+        let mut v = [
+            e[0].at(p) + e[0].bias,
+            e[1].at(p) + e[1].bias,
+            e[2].at(p) + e[2].bias,
+        ];
+        for j in j0..=j1 {
+            let (mut lo, mut hi) = (0.0f64, n);
+            for m in 0..3 {
+                // Edge m is positive for k > −v/st (st > 0) or k < −v/st (st < 0).
+                let b = v[m] as f64 * ninv[m];
+                if st[m] > 0 {
+                    lo = lo.max(b - 1.0);
+                } else if st[m] < 0 {
+                    hi = hi.min(b + 1.0);
+                } else if v[m] <= 0 {
+                    hi = -1.0;
+                }
+            }
+            if lo <= hi {
+                let (k0, k1) = (floor_i64(lo), ceil_i64(hi).min(ib - ia));
+                if k0 <= k1 {
+                    f(Row {
+                        tri,
+                        j,
+                        i0: ia + k0,
+                        i1: ia + k1,
+                        v: [v[0] + k0 * st[0], v[1] + k0 * st[1], v[2] + k0 * st[2]],
+                        st,
+                        lx: (v[2] - e[2].bias + k0 * st[2]) as f64 * inv_x,
+                        ly: (v[0] - e[0].bias + k0 * st[0]) as f64 * inv_y,
+                        dlx: st[2] as f64 * inv_x,
+                        dly: st[0] as f64 * inv_y,
+                    });
+                }
+            }
+            v[0] += sr[0];
+            v[1] += sr[1];
+            v[2] += sr[2];
         }
     }
 }

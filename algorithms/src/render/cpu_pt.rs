@@ -31,6 +31,9 @@ use std::time::Instant;
 use glam::DVec3;
 use rayon::prelude::*;
 
+mod fast;
+
+use self::fast::FastRec;
 use super::{ms_since, Family, Frame, FrameTimes, Renderer, RendererInfo};
 use crate::camera::{Camera, Projection};
 use crate::error::{Error, Result};
@@ -100,27 +103,128 @@ struct VertProj {
     z: f64,
 }
 
-/// A classified tet and its tile range (inclusive; empty when not drawn).
+/// A classified tet (general path).
 #[derive(Clone, Copy, Default)]
 struct TetProj {
     thick: Thick,
-    tiles: [u16; 4],
 }
+
+/// The tile range of a tet, inclusive (empty, `[1, 1, 0, 0]`, when not drawn).
+type TileRect = [u16; 4];
+const NO_TILES: TileRect = [1, 1, 0, 0];
 
 #[derive(Default)]
 struct Scratch {
     verts: Vec<VertProj>,
+    /// General path: the classified tets.
     tets: Vec<TetProj>,
+    /// Fast path: one record per tet.
+    fast: Vec<FastRec>,
+    /// The tile range per tet.
+    rects: Vec<TileRect>,
     order: Vec<u32>,
+    bins: Bins,
 }
 
 impl Scratch {
     fn bytes(&self) -> usize {
         self.verts.capacity() * std::mem::size_of::<VertProj>()
             + self.tets.capacity() * std::mem::size_of::<TetProj>()
+            + self.fast.capacity() * std::mem::size_of::<FastRec>()
+            + self.rects.capacity() * std::mem::size_of::<TileRect>()
             + self.order.capacity() * 4
+            + self.bins.bytes()
     }
 }
+
+/// The tets of every tile in visibility order, in one array (a counting sort of the
+/// (tet, tile) pairs by tile, stable in the order): tile k's tets are
+/// `items[start[k]..start[k + 1]]`.
+#[derive(Default)]
+struct Bins {
+    start: Vec<u32>,
+    items: Vec<u32>,
+    /// Per chunk of the order, its running offset per tile.
+    offsets: Vec<Vec<u32>>,
+}
+
+impl Bins {
+    fn bytes(&self) -> usize {
+        (self.start.capacity() + self.items.capacity()) * 4
+            + self.offsets.iter().map(|o| o.capacity() * 4).sum::<usize>()
+    }
+
+    fn tile(&self, k: usize) -> &[u32] {
+        &self.items[self.start[k] as usize..self.start[k + 1] as usize]
+    }
+
+    /// Bins `order` by the tile ranges `rects` (per tet) of a `ntx`-wide grid of `ntiles`:
+    /// chunks of the order counted in parallel, offsets by a prefix sum over (tile, chunk), then
+    /// each chunk writes its own disjoint ranges.
+    fn build(&mut self, order: &[u32], rects: &[TileRect], ntx: usize, ntiles: usize) {
+        let nchunks = (rayon::current_num_threads().max(1) * 4).min(order.len().max(1));
+        let chunk = order.len().div_ceil(nchunks).max(1);
+        let chunks: Vec<&[u32]> = order.chunks(chunk).collect();
+        self.offsets.resize_with(chunks.len(), Vec::new);
+        self.offsets.truncate(chunks.len());
+        self.offsets
+            .par_iter_mut()
+            .zip(&chunks)
+            .for_each(|(cnt, ids)| {
+                cnt.clear();
+                cnt.resize(ntiles, 0);
+                for &t in ids.iter() {
+                    let r = rects[t as usize];
+                    for ty in r[1]..=r[3] {
+                        let row = ty as usize * ntx;
+                        for tx in r[0]..=r[2] {
+                            cnt[row + tx as usize] += 1;
+                        }
+                    }
+                }
+            });
+        self.start.clear();
+        self.start.resize(ntiles + 1, 0);
+        let mut sum = 0u32;
+        for k in 0..ntiles {
+            self.start[k] = sum;
+            for c in self.offsets.iter_mut() {
+                let n = c[k];
+                c[k] = sum;
+                sum += n;
+            }
+        }
+        self.start[ntiles] = sum;
+        self.items.clear();
+        self.items.resize(sum as usize, 0);
+        let out = SharedOut(self.items.as_mut_ptr());
+        self.offsets
+            .par_iter_mut()
+            .zip(&chunks)
+            .for_each(|(off, ids)| {
+                let out = &out;
+                for &t in ids.iter() {
+                    let r = rects[t as usize];
+                    for ty in r[1]..=r[3] {
+                        let row = ty as usize * ntx;
+                        for tx in r[0]..=r[2] {
+                            let o = &mut off[row + tx as usize];
+                            // SAFETY: chunk c's pairs of tile k go to
+                            // [offset(k, c), offset(k, c + 1)), disjoint from every other
+                            // (tile, chunk)'s range and inside `items` (sized to the total).
+                            unsafe { out.0.add(*o as usize).write(t) };
+                            *o += 1;
+                        }
+                    }
+                }
+            });
+    }
+}
+
+/// The bins' output array, written by several threads at disjoint indices.
+struct SharedOut(*mut u32);
+// SAFETY: see `Bins::build`: every index is written by exactly one thread.
+unsafe impl Sync for SharedOut {}
 
 impl CpuPt {
     /// Reports itself under a variant's registry name.
@@ -223,6 +327,8 @@ impl Renderer for CpuPt {
             )));
         }
         let persp = camera.projection == Projection::Persp;
+        // The fast path: ortho with an f32 integrator (see `fast`).
+        let fast = st.fast.as_ref().filter(|_| !persp);
         let (ntx, nty) = (w.div_ceil(TILE), h.div_ceil(TILE));
 
         // 1. Project and classify.
@@ -239,39 +345,70 @@ impl Renderer for CpuPt {
             })
             .collect_into_vec(&mut sc.verts);
         let verts = &sc.verts;
-        mesh.tets()
-            .par_iter()
-            .map(|t| {
-                let v: [ProjVertex; 4] = std::array::from_fn(|k| {
-                    let i = t[k] as usize;
-                    let p = st.pos[i];
-                    ProjVertex {
-                        q: [verts[i].q[0] as i64, verts[i].q[1] as i64],
-                        z: verts[i].z,
-                        p: DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64),
-                        s: st.s[i] as f64,
-                    }
-                });
-                let thick = classify(&v, persp, st.inv_l);
-                let mut tiles = [1, 1, 0, 0];
-                if TABLE[thick.case as usize].drawn() {
-                    let g = FanGeometry::new(v.map(|v| v.q), &thick);
-                    let b = g.pixel_bounds();
-                    let (i0, j0) = (b[0].max(0), b[1].max(0));
-                    let (i1, j1) = (b[2].min(w as i64 - 1), b[3].min(h as i64 - 1));
-                    if i0 <= i1 && j0 <= j1 {
-                        let t = TILE as i64;
-                        tiles = [
-                            (i0 / t) as u16,
-                            (j0 / t) as u16,
-                            (i1 / t) as u16,
-                            (j1 / t) as u16,
-                        ];
-                    }
+        let classify_tet = |t: &[u32; 4]| {
+            let v: [ProjVertex; 4] = std::array::from_fn(|k| {
+                let i = t[k] as usize;
+                let p = st.pos[i];
+                ProjVertex {
+                    q: [verts[i].q[0] as i64, verts[i].q[1] as i64],
+                    z: verts[i].z,
+                    p: DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64),
+                    s: st.s[i] as f64,
                 }
-                TetProj { thick, tiles }
-            })
-            .collect_into_vec(&mut sc.tets);
+            });
+            let thick = classify(&v, persp, st.inv_l);
+            let mut tiles = NO_TILES;
+            if TABLE[thick.case as usize].drawn() {
+                let g = FanGeometry::new(v.map(|v| v.q), &thick);
+                let b = g.pixel_bounds();
+                let (i0, j0) = (b[0].max(0), b[1].max(0));
+                let (i1, j1) = (b[2].min(w as i64 - 1), b[3].min(h as i64 - 1));
+                if i0 <= i1 && j0 <= j1 {
+                    let t = TILE as i64;
+                    tiles = [
+                        (i0 / t) as u16,
+                        (j0 / t) as u16,
+                        (i1 / t) as u16,
+                        (j1 / t) as u16,
+                    ];
+                }
+            }
+            (thick, tiles)
+        };
+        if fast.is_some() {
+            sc.tets = Vec::new();
+            sc.fast.resize(mesh.num_tets(), FastRec::default());
+            sc.rects.resize(mesh.num_tets(), NO_TILES);
+            let (fr, rects) = (&mut sc.fast, &mut sc.rects);
+            mesh.tets()
+                .par_iter()
+                .zip(fr.par_iter_mut().zip(rects.par_iter_mut()))
+                .for_each(|(t, (f, r))| {
+                    let (th, tiles) = classify_tet(t);
+                    *r = tiles;
+                    *f = FastRec {
+                        q: t.map(|v| verts[v as usize].q),
+                        s: t.map(|v| st.s[v as usize]),
+                        sf: th.sf as f32,
+                        sb: th.sb as f32,
+                        l: th.l as f32,
+                        case: th.case,
+                    };
+                });
+        } else {
+            sc.fast = Vec::new();
+            sc.tets.resize(mesh.num_tets(), TetProj::default());
+            sc.rects.resize(mesh.num_tets(), NO_TILES);
+            let (tp, rects) = (&mut sc.tets, &mut sc.rects);
+            mesh.tets()
+                .par_iter()
+                .zip(tp.par_iter_mut().zip(rects.par_iter_mut()))
+                .for_each(|(t, (p, r))| {
+                    let (thick, tiles) = classify_tet(t);
+                    *r = tiles;
+                    *p = TetProj { thick };
+                });
+        }
         let project_ms = ms_since(t0);
 
         // 2. Sort.
@@ -283,47 +420,41 @@ impl Renderer for CpuPt {
         sc.order = order;
         let sort_ms = ms_since(t1);
         let st = self.state.as_ref().expect("prepared");
+        let fast = st.fast.as_ref().filter(|_| !persp);
 
-        // 3. Draw: bin in sorted order (chunks of the order in parallel, concatenated in chunk
-        //    order per tile), then render the tiles in parallel.
+        // 3. Draw: bin in sorted order, then render the tiles in parallel.
         let t2 = Instant::now();
         let ntiles = (ntx * nty) as usize;
-        let chunk = sc
-            .order
-            .len()
-            .div_ceil(rayon::current_num_threads().max(1) * 4)
-            .max(1);
-        let bins: Vec<Vec<Vec<u32>>> = sc
-            .order
-            .par_chunks(chunk)
-            .map(|ids| {
-                let mut b = vec![Vec::new(); ntiles];
-                for &t in ids {
-                    let r = sc.tets[t as usize].tiles;
-                    for ty in r[1]..=r[3] {
-                        for tx in r[0]..=r[2] {
-                            b[ty as usize * ntx as usize + tx as usize].push(t);
-                        }
-                    }
-                }
-                b
-            })
-            .collect();
+        let mut bins = std::mem::take(&mut sc.bins);
+        bins.build(&sc.order, &sc.rects, ntx as usize, ntiles);
         let bin_ms = ms_since(t2);
-        let drawn = sc
-            .tets
-            .iter()
-            .filter(|t| TABLE[t.thick.case as usize].drawn())
-            .count();
-        let pairs: usize = bins.iter().flatten().map(|b| b.len()).sum();
-        let tiles = match &st.fast {
-            Some(fast) => draw_tiles(
+        let drawn = if fast.is_some() {
+            sc.fast
+                .iter()
+                .filter(|f| TABLE[f.case as usize].drawn())
+                .count()
+        } else {
+            sc.tets
+                .iter()
+                .filter(|t| TABLE[t.thick.case as usize].drawn())
+                .count()
+        };
+        let pairs = bins.items.len();
+        let tiles: Vec<(Vec<[f32; 4]>, u64)> = match (fast, &st.fast) {
+            (Some(integ), _) => (0..ntiles)
+                .into_par_iter()
+                .map(|k| {
+                    let t = (k as u32 % ntx, k as u32 / ntx);
+                    fast::draw_tile(&sc.fast, bins.tile(k), integ, t, (w, h))
+                })
+                .collect(),
+            (None, Some(integ)) => draw_tiles(
                 DrawCtx {
                     tets: mesh.tets(),
                     verts: &sc.verts,
                     rec: &sc.tets,
                     s: &st.s,
-                    integ: fast,
+                    integ,
                     camera,
                     persp,
                     inv_l: st.inv_l,
@@ -332,7 +463,7 @@ impl Renderer for CpuPt {
                 ntx,
                 ntiles,
             ),
-            None => draw_tiles(
+            (None, None) => draw_tiles(
                 DrawCtx {
                     tets: mesh.tets(),
                     verts: &sc.verts,
@@ -348,6 +479,7 @@ impl Renderer for CpuPt {
                 ntiles,
             ),
         };
+        sc.bins = bins;
         let mut image = Image::new(w, h);
         let mut fragments = 0u64;
         for (k, (buf, nf)) in tiles.iter().enumerate() {
@@ -421,7 +553,7 @@ impl Shade for &FastIntegrator {
 /// Renders every tile in parallel (monomorphised per [`Shade`]).
 fn draw_tiles<S: Shade>(
     ctx: DrawCtx<'_, S>,
-    bins: &[Vec<Vec<u32>>],
+    bins: &Bins,
     ntx: u32,
     ntiles: usize,
 ) -> Vec<(Vec<[f32; 4]>, u64)> {
@@ -429,7 +561,7 @@ fn draw_tiles<S: Shade>(
         .into_par_iter()
         .map(|k| {
             let (tx, ty) = (k as u32 % ntx, k as u32 / ntx);
-            ctx.draw_tile(tx, ty, bins.iter().map(|b| b[k].as_slice()))
+            ctx.draw_tile(tx, ty, bins.tile(k))
         })
         .collect()
 }
@@ -448,12 +580,7 @@ struct DrawCtx<'a, S> {
 impl<S: Shade> DrawCtx<'_, S> {
     /// Renders tile (tx, ty) from its bins (in order); returns the tile's RGBA rows (TILE wide)
     /// and its fragment count.
-    fn draw_tile<'b>(
-        &self,
-        tx: u32,
-        ty: u32,
-        bins: impl Iterator<Item = &'b [u32]>,
-    ) -> (Vec<[f32; 4]>, u64) {
+    fn draw_tile(&self, tx: u32, ty: u32, bin: &[u32]) -> (Vec<[f32; 4]>, u64) {
         let ts = TILE as usize;
         let mut buf = vec![[0.0f32; 4]; ts * ts];
         let (x0, y0) = ((tx * TILE) as i64, (ty * TILE) as i64);
@@ -480,10 +607,8 @@ impl<S: Shade> DrawCtx<'_, S> {
             Vec::new()
         };
         let mut frags = 0u64;
-        for bin in bins {
-            for &t in bin {
-                frags += self.draw_tet(t as usize, clip, &mut buf, &sec);
-            }
+        for &t in bin {
+            frags += self.draw_tet(t as usize, clip, &mut buf, &sec);
         }
         (buf, frags)
     }

@@ -67,8 +67,22 @@ impl TransferFunction {
     pub fn from_json(text: &str, source: &str) -> Result<TransferFunction> {
         // A UTF-8 byte-order mark is accepted (and ignored), as in every reader.
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-        let f: TfFile = serde_json::from_str(text)
-            .map_err(|e| Error::input(source, format!("not a transfer function: {e}")))?;
+        let f: TfFile = serde_json::from_str(text).map_err(|e| {
+            // serde quotes the offending key verbatim, newlines included: keep one line.
+            let msg: String = e
+                .to_string()
+                .chars()
+                .flat_map(|c| {
+                    let esc: Vec<char> = if c.is_control() {
+                        c.escape_default().collect()
+                    } else {
+                        vec![c]
+                    };
+                    esc
+                })
+                .collect();
+            Error::input(source, format!("not a transfer function: {msg}"))
+        })?;
         let tf = TransferFunction {
             name: f.name.unwrap_or_else(|| source.to_string()),
             range: f.range,
@@ -304,6 +318,7 @@ mod tests {
                 "sorted",
             ),
             (r#"{"points": [{"s":0.0,"rgb":[0,0,0],"tau":-1}]}"#, "tau"),
+            ("{\"r\\nx\": 1, \"points\": []}", "unknown field `r\\nx`"),
             (
                 r#"{"points": [{"s":0.0,"rgb":[0,0],"tau":1}]}"#,
                 "not a transfer",

@@ -194,7 +194,20 @@ const SMALL_G: f64 = 1.5;
 /// every panel is integrated to full relative precision whatever the scale of `a`, `b`; the
 /// integrand is monotone decreasing (`g' = τl ≥ 0`), and the tail beyond a panel end `u₁` is at
 /// most `(1 − u₁)·exp(−g(u₁))`, so integration stops once that is below 1e-18 of the sum.
+///
+/// A huge front depth (τ ≥ 1e30 gives `fa` ≥ 1e25 at every tabled length) takes ~28 panels
+/// that way; there the integrand is gone within `u ~ 1/fa`, where the quadratic term is
+/// negligible, and with `x = fa·u`, `β = b/fa² = (fb − fa)/(2fa²)`:
+/// `Ψ = (1/fa)·∫₀^fa e^{−x − βx²} dx = (1/fa)·(1 − 2β + 12β² − O(β³)) − O(e^{−fa})` (from
+/// `∫₀^∞ x^{2k} e^{−x} dx = (2k)!`). For `fa ≥ 1e4` and `|β| ≤ 1e-10` the dropped terms are below
+/// 1e-20 relative, so that closed form is used (it made `preint` with τ = 1e30 take seconds).
 fn psi_panels(fa: f64, fb: f64) -> f64 {
+    if fa >= 1e4 {
+        let beta = (fb - fa) / (2.0 * fa) / fa;
+        if beta.abs() <= 1e-10 {
+            return (1.0 - 2.0 * beta + 12.0 * beta * beta) / fa;
+        }
+    }
     psi_panels_dg(fa, fb, PANEL_DG)
 }
 fn psi_panels_dg(fa: f64, fb: f64, dg: f64) -> f64 {
@@ -770,8 +783,9 @@ impl Integrator for Partial {
 /// `n_s` (`s_b`), depth `n_l` (`l`). [`dims`](Self::dims) = `[n_s, n_s, n_l]`.
 ///
 /// **s axes.** Node `i` is at `s = s_lo + i/(n_s − 1)·(s_hi − s_lo)` with
-/// `[s_lo, s_hi] = [min(0, first point s), max(1, last point s)]` ([`s_range`](Self::s_range)), so
-/// every transfer-function point lies inside. Scalars outside are clamped to the range (exact only
+/// `[s_lo, s_hi] = [min(0, first point s), max(1, last point s)]` clamped to ±1e30
+/// ([`TransferFunction::table_domain`], [`s_range`](Self::s_range)), so every transfer-function
+/// point lies inside. Scalars outside are clamped to the range (exact only
 /// when both ends are on the same side outside, since the TF is constant there).
 ///
 /// **l axis.** Node `k` is at the coordinate `x = k/(n_l − 1)` of the map
@@ -802,78 +816,155 @@ impl PreintTable {
     }
 
     /// `n_s` nodes on each `s` axis and `n_l` on the `l` axis (each raised to at least 2).
+    ///
+    /// **Build.** The nodes are evenly spaced, so a segment from node `i` to node `j ≠ i` of
+    /// length `l` crosses the `d = |j − i|` cells between them, each over length `l/d`, and its
+    /// exact integral is the front-to-back composite of those cells' exact integrals (splitting a
+    /// linear piece at a node changes nothing). Per plane `k` and per `d` the cells are integrated
+    /// once in each direction and every segment of that `d` composited from them: the TF is split
+    /// at its points once per cell, so the build costs O(n_l·n_s·(points + n_s)) piece integrals
+    /// plus O(n_l·n_s³) composites, not O(n_l·n_s²·points).
     pub fn with_size(tf: &TransferFunction, n_s: usize, n_l: usize) -> PreintTable {
         let (n_s, n_l) = (n_s.max(2), n_l.max(2));
-        let pts = &tf.points;
-        let s_lo = pts[0].s.min(0.0);
-        let s_hi = pts[pts.len() - 1].s.max(1.0);
-        let ds = (s_hi - s_lo) / (n_s - 1) as f64;
+        // Clamped to ±1e30, so the step is finite (±1e308 overflowed it to inf).
+        let (s_lo, s_hi) = tf.table_domain();
         let s_at = |i: usize| {
             if i == n_s - 1 {
                 s_hi
             } else {
-                s_lo + i as f64 * ds
+                s_lo + (s_hi - s_lo) * (i as f64 / (n_s - 1) as f64)
             }
         };
         let ls: Vec<f64> = (0..n_l)
             .map(|k| Self::coord_to_l(k as f64 / (n_l - 1) as f64))
             .collect();
-        let plane = n_s * n_s * 4;
+        let cells = n_s - 1;
+        // Each cell's pieces front to back, walked upwards (`fwd`) and downwards (`bwd`).
+        let split = |a: f64, b: f64| {
+            let mut v = Vec::new();
+            split_pieces(tf, a, b, &mut v);
+            v
+        };
+        let fwd: Vec<Vec<Piece>> = (0..cells).map(|c| split(s_at(c), s_at(c + 1))).collect();
+        let bwd: Vec<Vec<Piece>> = (0..cells).map(|c| split(s_at(c + 1), s_at(c))).collect();
+        // Per cell: mean extinction and ∫Cτ, ∫C over the cell (per unit share of it), with τ
+        // divided by τ_max so that huge extinctions (up to f64::MAX) cannot overflow and
+        // subnormal ones are not lost (a reciprocal 1/5e-309 would be inf). Per piece
+        // ∫₀¹ τ du = (τ_f + τ_b)/2 and ∫₀¹ Cτ du = (C_f(2τ_f + τ_b) + C_b(τ_f + 2τ_b))/6.
         let max_tau = tf.max_tau();
-        let tau_scale = if max_tau > 0.0 { 1.0 / max_tau } else { 1.0 };
-        // Computed in (s_b, s_f) order with l innermost, scattered into the l-major layout after.
-        let mut cols = vec![0f32; plane * n_l];
-        cols.par_chunks_mut(n_l * 4)
-            .enumerate()
-            .for_each_init(Vec::new, |pieces, (idx, col)| {
+        let scaled = |t: f64| if max_tau > 0.0 { t / max_tau } else { 0.0 };
+        let moments = |pieces: &[Piece]| {
+            let (mut tau, mut ct, mut cm) = (0.0, [0.0; 3], [0.0; 3]);
+            for p in pieces {
+                let (tf_s, tb_s) = (scaled(p.tf), scaled(p.tb));
+                tau += p.frac * 0.5 * (tf_s + tb_s);
+                for c in 0..3 {
+                    ct[c] += p.frac
+                        * (p.cf[c] * (2.0 * tf_s + tb_s) + p.cb[c] * (tf_s + 2.0 * tb_s))
+                        / 6.0;
+                    cm[c] += p.frac * 0.5 * (p.cf[c] + p.cb[c]);
+                }
+            }
+            (tau, ct, cm)
+        };
+        let cell_moments: Vec<_> = fwd.iter().map(|p| moments(p)).collect();
+        // Mean extinction τ̄ and the l → 0 limit c0 of I/α per (i, j), both symmetric in i, j.
+        let ends: Vec<(f64, [f64; 3])> = (0..n_s * n_s)
+            .into_par_iter()
+            .map(|idx| {
                 let (i, j) = (idx % n_s, idx / n_s);
-                split_pieces(tf, s_at(i), s_at(j), pieces);
-                // Mean extinction and the l → 0 limit of I/α: per piece ∫₀¹ τ du = (τ_f + τ_b)/2 and
-                // ∫₀¹ Cτ du = (C_f(2τ_f + τ_b) + C_b(τ_f + 2τ_b))/6.
-                // Summed with τ scaled by 1/τ_max so that huge extinctions (up to f64::MAX)
-                // cannot overflow; c0 is scale-invariant.
-                let mut tau_mean_s = 0.0;
-                let mut ct = [0.0; 3];
-                let mut c_mean = [0.0; 3];
-                for p in pieces.iter() {
-                    let (tf_s, tb_s) = (p.tf * tau_scale, p.tb * tau_scale);
-                    tau_mean_s += p.frac * 0.5 * (tf_s + tb_s);
+                if i == j {
+                    let (c, t) = tf.eval(s_at(i));
+                    return (t, c);
+                }
+                let (a, b) = (i.min(j), i.max(j));
+                let d = (b - a) as f64;
+                let (mut tau_s, mut ct, mut cm) = (0.0, [0.0; 3], [0.0; 3]);
+                for (t, ctc, cmc) in &cell_moments[a..b] {
+                    tau_s += t / d;
                     for c in 0..3 {
-                        ct[c] += p.frac
-                            * (p.cf[c] * (2.0 * tf_s + tb_s) + p.cb[c] * (tf_s + 2.0 * tb_s))
-                            / 6.0;
-                        c_mean[c] += p.frac * 0.5 * (p.cf[c] + p.cb[c]);
+                        ct[c] += ctc[c] / d;
+                        cm[c] += cmc[c] / d;
                     }
                 }
-                let tau_mean = tau_mean_s / tau_scale;
-                let c0 = if tau_mean_s > 0.0 {
-                    ct.map(|x| x / tau_mean_s)
+                let c0 = if tau_s > 0.0 {
+                    ct.map(|x| x / tau_s)
                 } else {
-                    c_mean
+                    cm
                 };
-                for (k, &l) in ls.iter().enumerate() {
-                    let seg = if l > 0.0 {
-                        integrate_pieces(pieces, l)
-                    } else {
-                        Segment::default()
-                    };
-                    let chat = if seg.alpha > 0.0 {
-                        seg.rgb.map(|x| x / seg.alpha)
-                    } else {
-                        c0
-                    };
-                    let e = &mut col[k * 4..k * 4 + 4];
-                    e[..3].copy_from_slice(&chat.map(|x| x as f32));
-                    // Capped so that f32 interpolation never meets inf − inf (τ·l > ~100 is
-                    // opaque anyway).
-                    e[3] = tau_mean.min(1e30) as f32;
-                }
-            });
+                (tau_s * max_tau, c0)
+            })
+            .collect();
+        let plane = n_s * n_s * 4;
         let mut data = vec![0f32; plane * n_l];
         data.par_chunks_mut(plane).enumerate().for_each(|(k, dst)| {
-            for idx in 0..n_s * n_s {
-                dst[idx * 4..idx * 4 + 4]
-                    .copy_from_slice(&cols[(idx * n_l + k) * 4..(idx * n_l + k) * 4 + 4]);
+            let l = ls[k];
+            let mut put = |i: usize, j: usize, seg: Segment| {
+                let (tau_mean, c0) = ends[j * n_s + i];
+                let chat = if seg.alpha > 0.0 {
+                    seg.rgb.map(|x| x / seg.alpha)
+                } else {
+                    c0
+                };
+                // Ĉ is bounded by the colours met (in [0, 1]); the clamp only catches round-off
+                // of subnormal α.
+                let chat = if chat.iter().all(|x| x.is_finite()) {
+                    chat.map(|x| x.clamp(0.0, 1.0))
+                } else {
+                    c0
+                };
+                let e = &mut dst[(j * n_s + i) * 4..(j * n_s + i) * 4 + 4];
+                e[..3].copy_from_slice(&chat.map(|x| x as f32));
+                // Capped so that f32 interpolation never meets inf − inf (τ·l > ~100 is
+                // opaque anyway).
+                e[3] = tau_mean.min(1e30) as f32;
+            };
+            for i in 0..n_s {
+                let seg = if l > 0.0 {
+                    let (c, t) = tf.eval(s_at(i));
+                    piece_segment(c, t, c, t, l)
+                } else {
+                    Segment::default()
+                };
+                put(i, i, seg);
+            }
+            let (mut ef, mut eb) = (
+                vec![Segment::default(); cells],
+                vec![Segment::default(); cells],
+            );
+            for d in 1..n_s {
+                if l > 0.0 {
+                    let lc = l / d as f64;
+                    for c in 0..cells {
+                        ef[c] = integrate_pieces(&fwd[c], lc);
+                        eb[c] = integrate_pieces(&bwd[c], lc);
+                    }
+                }
+                for i in 0..n_s - d {
+                    let j = i + d;
+                    if l <= 0.0 {
+                        put(i, j, Segment::default());
+                        put(j, i, Segment::default());
+                        continue;
+                    }
+                    // s_f = s_i < s_b = s_j: cells i..j upwards; and the reverse.
+                    let mut up = Segment::default();
+                    for seg in &ef[i..j] {
+                        composite_under(&mut up, *seg);
+                        if up.alpha >= 1.0 {
+                            break;
+                        }
+                    }
+                    put(i, j, up);
+                    let mut down = Segment::default();
+                    for seg in eb[i..j].iter().rev() {
+                        composite_under(&mut down, *seg);
+                        if down.alpha >= 1.0 {
+                            break;
+                        }
+                    }
+                    put(j, i, down);
+                }
             }
         });
         PreintTable {
@@ -1062,6 +1153,27 @@ mod tests {
         (0..3)
             .map(|c| (a.rgb[c] - b.rgb[c]).abs())
             .fold((a.alpha - b.alpha).abs(), f64::max)
+    }
+
+    #[test]
+    fn psi_for_huge_front_depths_matches_the_panels() {
+        // The closed form used for fa ≥ 1e4, |β| ≤ 1e-10 agrees with the panel quadrature.
+        for (fa, fb) in [
+            (1e4, 1e4),
+            (1e5, 1e5 + 1.0),
+            (1e7, 1e7 + 1e3),
+            (1e12, 1e13),
+            (1e25, 1e26),
+            (1e30, 3e29),
+        ] {
+            let beta: f64 = (fb - fa) / (2.0 * fa) / fa;
+            assert!(beta.abs() <= 1e-10, "{fa} {fb}");
+            let (closed, panels) = (psi_panels(fa, fb), psi_panels_dg(fa, fb, PANEL_DG));
+            assert!(
+                rel(closed, panels) <= 1e-13,
+                "{fa} {fb}: {closed} vs {panels}"
+            );
+        }
     }
 
     #[test]

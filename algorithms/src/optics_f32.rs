@@ -35,9 +35,8 @@ pub struct TfTable {
 impl TfTable {
     pub fn new(tf: &TransferFunction, n: usize) -> TfTable {
         let n = n.max(2);
-        let pts = &tf.points;
-        let lo = pts[0].s.min(0.0);
-        let hi = pts[pts.len() - 1].s.max(1.0);
+        // Clamped to ±1e30: the step stays finite and the bounds survive f32.
+        let (lo, hi) = tf.table_domain();
         let data = (0..n)
             .map(|i| {
                 let s = if i == n - 1 {

@@ -54,10 +54,35 @@ impl ScalarMap {
 pub const PRESETS: [&str; 3] = ["default", "cool-warm", "xray"];
 
 impl TransferFunction {
+    /// Most control points a transfer function may have: 8 per cell of `preint`'s 128-node
+    /// table ([`crate::optics::PreintTable`]), a quarter of the 4096 samples of the other
+    /// tables ([`crate::optics_f32::TF_SAMPLES`]); finer detail is lost to all but `exact`. The
+    /// bound keeps `preint`'s table build (O(table nodes · points)) within seconds; 10⁵–10⁶
+    /// points took minutes to hours.
+    pub const MAX_POINTS: usize = 1024;
+    /// The table domains are clamped to `[−S_LIMIT, S_LIMIT]` (see [`table_domain`](Self::table_domain)).
+    pub const S_LIMIT: f64 = 1e30;
+
     /// Parses the JSON of §3; `source` names the file in messages.
     pub fn from_json(text: &str, source: &str) -> Result<TransferFunction> {
-        let f: TfFile = serde_json::from_str(text)
-            .map_err(|e| Error::input(source, format!("not a transfer function: {e}")))?;
+        // A UTF-8 byte-order mark is accepted (and ignored), as in every reader.
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+        let f: TfFile = serde_json::from_str(text).map_err(|e| {
+            // serde quotes the offending key verbatim, newlines included: keep one line.
+            let msg: String = e
+                .to_string()
+                .chars()
+                .flat_map(|c| {
+                    let esc: Vec<char> = if c.is_control() {
+                        c.escape_default().collect()
+                    } else {
+                        vec![c]
+                    };
+                    esc
+                })
+                .collect();
+            Error::input(source, format!("not a transfer function: {msg}"))
+        })?;
         let tf = TransferFunction {
             name: f.name.unwrap_or_else(|| source.to_string()),
             range: f.range,
@@ -87,6 +112,16 @@ impl TransferFunction {
         if self.points.is_empty() {
             return Err(Error::input(source, "\"points\" is empty"));
         }
+        if self.points.len() > Self::MAX_POINTS {
+            return Err(Error::input(
+                source,
+                format!(
+                    "{} points; at most {} are accepted (the integrators' tables resolve no finer)",
+                    self.points.len(),
+                    Self::MAX_POINTS
+                ),
+            ));
+        }
         for (i, p) in self.points.iter().enumerate() {
             if !p.s.is_finite() {
                 return Err(Error::input(source, format!("points[{i}].s is not finite")));
@@ -97,10 +132,13 @@ impl TransferFunction {
                     format!("points[{i}].tau = {} must be finite and >= 0", p.tau),
                 ));
             }
-            if p.rgb.iter().any(|c| !c.is_finite() || *c < 0.0) {
+            if p.rgb.iter().any(|c| !(0.0..=1.0).contains(c)) {
                 return Err(Error::input(
                     source,
-                    format!("points[{i}].rgb = {:?} must be finite and >= 0", p.rgb),
+                    format!(
+                        "points[{i}].rgb = {:?}: each channel must be in [0, 1] (linear RGB)",
+                        p.rgb
+                    ),
                 ));
             }
             if i > 0 && p.s <= self.points[i - 1].s {
@@ -141,10 +179,29 @@ impl TransferFunction {
         ScalarMap { min, inv_span }
     }
 
-    /// Colour and extinction at `s`: linear between points, constant beyond the ends.
+    /// `[s_lo, s_hi]` sampled by the integrators' tables: `[min(0, first s), max(1, last s)]`,
+    /// clamped to `±S_LIMIT` so that the step `(s_hi − s_lo)/(n − 1)` is finite and the bounds
+    /// survive conversion to f32. Beyond ±1e30 a table holds the TF's value at the bound.
+    pub fn table_domain(&self) -> (f64, f64) {
+        let p = &self.points;
+        let lo = p[0].s.clamp(-Self::S_LIMIT, 0.0);
+        let hi = p[p.len() - 1].s.clamp(1.0, Self::S_LIMIT);
+        (lo, hi)
+    }
+
+    /// The points with `lo < s < hi` (a binary search: the points are sorted).
+    pub fn points_between(&self, lo: f64, hi: f64) -> &[TfPoint] {
+        let p = &self.points;
+        let a = p.partition_point(|q| q.s <= lo);
+        let b = p.partition_point(|q| q.s < hi).max(a);
+        &p[a..b]
+    }
+
+    /// Colour and extinction at `s`: linear between points, constant beyond the ends (a NaN `s`
+    /// gives the first point).
     pub fn eval(&self, s: f64) -> ([f64; 3], f64) {
         let p = &self.points;
-        if s <= p[0].s || p.len() == 1 {
+        if !(s > p[0].s) || p.len() == 1 {
             return (p[0].rgb, p[0].tau);
         }
         let last = p[p.len() - 1];
@@ -170,19 +227,14 @@ impl TransferFunction {
     /// met when walking from `s0` to `s1`. The `exact` integrator splits segments there.
     pub fn breakpoints_between(&self, s0: f64, s1: f64) -> impl Iterator<Item = f64> + '_ {
         let (lo, hi) = if s0 <= s1 { (s0, s1) } else { (s1, s0) };
-        let inner = self
-            .points
-            .iter()
-            .map(|p| p.s)
-            .filter(move |&s| s > lo && s < hi);
-        let v: Vec<f64> = if s0 <= s1 {
-            inner.collect()
+        let inner = self.points_between(lo, hi).iter().map(|p| p.s);
+        let fwd = s0 <= s1;
+        let (f, b) = if fwd {
+            (Some(inner), None)
         } else {
-            let mut v: Vec<f64> = inner.collect();
-            v.reverse();
-            v
+            (None, Some(inner.rev()))
         };
-        v.into_iter()
+        f.into_iter().flatten().chain(b.into_iter().flatten())
     }
 
     /// Largest extinction of any point.
@@ -266,6 +318,7 @@ mod tests {
                 "sorted",
             ),
             (r#"{"points": [{"s":0.0,"rgb":[0,0,0],"tau":-1}]}"#, "tau"),
+            ("{\"r\\nx\": 1, \"points\": []}", "unknown field `r\\nx`"),
             (
                 r#"{"points": [{"s":0.0,"rgb":[0,0],"tau":1}]}"#,
                 "not a transfer",
@@ -290,5 +343,74 @@ mod tests {
             assert_eq!(TransferFunction::load(p).unwrap(), tf);
         }
         assert!(TransferFunction::load("no-such-preset").is_err());
+    }
+
+    mod fuzz_tf {
+        use super::*;
+        use crate::io::vtk::tests::fuzz::*;
+        use crate::optics_f32::TfTable;
+        use proptest::prelude::*;
+
+        /// Numbers a hostile file may hold.
+        fn number() -> impl Strategy<Value = f64> {
+            prop_oneof![
+                3 => -2.0f64..3.0,
+                1 => prop::sample::select(vec![
+                    0.0, -0.0, 1.0, 5e-309, 1e-300, 1e30, 1e39, 1e308, -1e308, f64::MAX,
+                    f64::MIN_POSITIVE,
+                ]),
+                1 => any::<f64>().prop_filter("finite", |x| x.is_finite()),
+            ]
+        }
+
+        proptest! {
+            #![proptest_config(config())]
+            /// Mutated JSON gives Ok or an Err of one line naming the file, never a panic.
+            #[test]
+            fn tf_json_never_panics(muts in prop::collection::vec(mutation(), 1..6)) {
+                let bytes = apply(EXAMPLE.as_bytes(), &muts);
+                let text = String::from_utf8_lossy(&bytes);
+                match TransferFunction::from_json(&text, "f.json") {
+                    Ok(tf) => {
+                        for s in [-1.0, 0.0, 0.3, 1.0, 2.0, f64::NAN] {
+                            let (c, t) = tf.eval(s);
+                            prop_assert!(c.iter().all(|x| x.is_finite()) && t.is_finite());
+                        }
+                    }
+                    Err(e) => {
+                        let m = e.to_string();
+                        prop_assert!(m.starts_with("f.json: ") && !m.contains('\n'), "{}", m);
+                    }
+                }
+            }
+
+            /// Structurally valid files with hostile numbers: accepted ones evaluate finite and
+            /// in range everywhere, and their f32 table is finite.
+            #[test]
+            fn tf_numbers_never_break_eval(
+                pts in prop::collection::vec((number(), [number(), number(), number()], number()), 1..6),
+                range in prop::option::of((number(), number())),
+            ) {
+                let body: Vec<String> = pts
+                    .iter()
+                    .map(|(s, c, t)| format!(r#"{{"s":{s:e},"rgb":[{:e},{:e},{:e}],"tau":{t:e}}}"#, c[0], c[1], c[2]))
+                    .collect();
+                let range = range.map(|(a, b)| format!(r#""range":[{a:e},{b:e}],"#)).unwrap_or_default();
+                let text = format!(r#"{{{range}"points":[{}]}}"#, body.join(","));
+                let Ok(tf) = TransferFunction::from_json(&text, "n.json") else {
+                    return Ok(());
+                };
+                let (lo, hi) = tf.table_domain();
+                prop_assert!(lo.is_finite() && hi.is_finite() && (hi - lo).is_finite());
+                for s in [lo, hi, 0.5, -1e308, 1e308, f64::NAN] {
+                    let (c, t) = tf.eval(s);
+                    prop_assert!(c.iter().all(|x| (0.0..=1.0).contains(x)) && t.is_finite() && t >= 0.0);
+                }
+                let table = TfTable::new(&tf, 64);
+                prop_assert!(table.data().iter().flatten().all(|x| x.is_finite()));
+                let m = tf.scalar_map((0.0, 1.0));
+                prop_assert!(m.inv_span.is_finite());
+            }
+        }
     }
 }

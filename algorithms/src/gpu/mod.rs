@@ -37,6 +37,17 @@ pub struct Gpu {
     pub limits: wgpu::Limits,
     /// `Rgba32Float` if the adapter blends it, else `Rgba16Float`.
     pub target_format: wgpu::TextureFormat,
+    /// The first uncaptured device error not yet reported ([`Gpu::take_error`]).
+    last_error: Arc<std::sync::Mutex<Option<String>>>,
+}
+
+/// A wgpu error as one line (its Display can span several).
+fn one_line_error(e: &wgpu::Error) -> String {
+    let s = match e {
+        wgpu::Error::OutOfMemory { .. } => "out of memory".to_string(),
+        e => e.to_string(),
+    };
+    s.split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
 static GPU: OnceLock<std::result::Result<Arc<Gpu>, String>> = OnceLock::new();
@@ -51,6 +62,16 @@ pub fn adapters() -> Vec<wgpu::AdapterInfo> {
         .iter()
         .map(|a| a.get_info())
         .collect()
+}
+
+/// `TETBENCH_ADAPTER`'s choice among `all`: a number is an index only (`2` never matches "256
+/// bits" in a name); anything else is a case-insensitive part of the name.
+fn pick_adapter<'a, A>(want: &str, all: &'a [A], name: impl Fn(&A) -> String) -> Option<&'a A> {
+    if let Ok(i) = want.parse::<usize>() {
+        return all.get(i);
+    }
+    let lower = want.to_lowercase();
+    all.iter().find(|a| name(a).to_lowercase().contains(&lower))
 }
 
 fn rank(info: &wgpu::AdapterInfo) -> (u8, u8) {
@@ -94,24 +115,17 @@ impl Gpu {
         let adapter = match std::env::var("TETBENCH_ADAPTER") {
             Ok(want) if !want.trim().is_empty() => {
                 let want = want.trim();
-                let by_index = want.parse::<usize>().ok().and_then(|i| all.get(i));
-                let lower = want.to_lowercase();
-                by_index
-                    .or_else(|| {
-                        all.iter()
-                            .find(|a| a.get_info().name.to_lowercase().contains(&lower))
-                    })
-                    .ok_or_else(|| {
-                        let names: Vec<String> = all
-                            .iter()
-                            .enumerate()
-                            .map(|(i, a)| format!("{i}: {}", describe(&a.get_info())))
-                            .collect();
-                        format!(
-                            "TETBENCH_ADAPTER={want} matches no adapter (have: {})",
-                            names.join("; ")
-                        )
-                    })?
+                pick_adapter(want, &all, |a| a.get_info().name).ok_or_else(|| {
+                    let names: Vec<String> = all
+                        .iter()
+                        .enumerate()
+                        .map(|(i, a)| format!("{i}: {}", describe(&a.get_info())))
+                        .collect();
+                    format!(
+                        "TETBENCH_ADAPTER={want} matches no adapter (have: {})",
+                        names.join("; ")
+                    )
+                })?
             }
             _ => all
                 .iter()
@@ -141,6 +155,14 @@ impl Gpu {
             trace: wgpu::Trace::Off,
         }))
         .map_err(|e| format!("GPU adapter {}: device refused: {e}", describe(&info)))?;
+        // Device errors (out of memory above all) are remembered, not a panic: `wait` and the
+        // readbacks turn them into an error naming the adapter.
+        let last_error: Arc<std::sync::Mutex<Option<String>>> = Arc::default();
+        let sink = last_error.clone();
+        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            let mut slot = sink.lock().unwrap_or_else(|p| p.into_inner());
+            slot.get_or_insert_with(|| one_line_error(&e));
+        }));
         let target_format = if features.contains(wgpu::Features::FLOAT32_BLENDABLE) {
             wgpu::TextureFormat::Rgba32Float
         } else {
@@ -153,7 +175,44 @@ impl Gpu {
             features,
             limits,
             target_format,
+            last_error,
         })
+    }
+
+    /// The first device error since the last call (uncaptured errors are stored, not raised),
+    /// as an error naming the adapter.
+    pub fn take_error(&self) -> Result<()> {
+        let e = self
+            .last_error
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .take();
+        match e {
+            Some(e) => Err(Error::Input(format!(
+                "GPU adapter {}: {e}",
+                describe(&self.info)
+            ))),
+            None => Ok(()),
+        }
+    }
+
+    /// Makes a resource of `bytes` bytes (`what`, e.g. "render target 12000x12000") with
+    /// `make`, refusing with one line when the device is out of memory for it.
+    pub fn alloc<T>(&self, what: &str, bytes: u64, make: impl FnOnce() -> T) -> Result<T> {
+        let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let invalid = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let v = make();
+        // Popped in reverse order; a size past the adapter's limits is a validation error.
+        let e = pollster::block_on(invalid.pop()).or(pollster::block_on(oom.pop()));
+        if let Some(e) = e {
+            return Err(Error::Input(format!(
+                "{what} needs {:.2} GiB, more than GPU adapter {} can allocate ({})",
+                bytes as f64 / (1u64 << 30) as f64,
+                describe(&self.info),
+                one_line_error(&e)
+            )));
+        }
+        Ok(v)
     }
 
     /// The adapter's name, as the CSV `device` column shows it.
@@ -170,7 +229,8 @@ impl Gpu {
         self.device
             .poll(wgpu::PollType::wait_indefinitely())
             .map(|_| ())
-            .map_err(|e| Error::Internal(format!("GPU wait failed: {e}")))
+            .map_err(|e| Error::Internal(format!("GPU wait failed: {e}")))?;
+        self.take_error()
     }
 
     /// A clear error if one buffer of `bytes` exceeds what the adapter allows for a storage
@@ -241,12 +301,15 @@ impl Gpu {
         };
         let row = (w * texel).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
             * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
-        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("target readback"),
-            size: row as u64 * h as u64,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let size = row as u64 * h as u64;
+        let staging = self.alloc(&format!("the readback of the {w}x{h} image"), size, || {
+            self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("target readback"),
+                size,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        })?;
         let mut enc = self
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
@@ -309,12 +372,14 @@ impl Account {
             gpu.check_buffer(label, size)?;
         }
         self.bytes += size;
-        Ok(gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some(label),
-            size,
-            usage,
-            mapped_at_creation: false,
-        }))
+        gpu.alloc(&format!("GPU buffer '{label}'"), size, || {
+            gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage,
+                mapped_at_creation: false,
+            })
+        })
     }
 
     /// A new buffer holding `data`, counted.
@@ -350,21 +415,25 @@ impl Account {
         } else {
             8
         };
-        self.bytes += w as u64 * h as u64 * texel;
-        Ok(gpu.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("target"),
-            size: wgpu::Extent3d {
-                width: w,
-                height: h,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: gpu.target_format,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-            view_formats: &[],
-        }))
+        let bytes = w as u64 * h as u64 * texel;
+        self.bytes += bytes;
+        let what = format!("the {w}x{h} render target (largest texture {max} per side)");
+        gpu.alloc(&what, bytes, || {
+            gpu.device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("target"),
+                size: wgpu::Extent3d {
+                    width: w,
+                    height: h,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: gpu.target_format,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+                view_formats: &[],
+            })
+        })
     }
 }
 
@@ -538,5 +607,37 @@ mod tests {
         };
         let e = gpu.check_buffer("tet buffer", u64::MAX / 2).unwrap_err();
         assert!(e.to_string().contains("tet buffer"), "{e}");
+    }
+
+    #[test]
+    fn allocations_that_cannot_be_made_are_refused_not_a_panic() {
+        let Some(gpu) = test_gpu("allocations_that_cannot_be_made_are_refused") else {
+            return;
+        };
+        let mut acct = Account::default();
+        // 1 TiB: past every adapter's max_buffer_size (a device error, formerly a panic in
+        // wgpu's default handler).
+        let e = acct
+            .buffer(&gpu, "huge", 1 << 40, wgpu::BufferUsages::COPY_DST)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("'huge'") && e.contains("1024.00 GiB"), "{e}");
+        assert!(!e.contains('\n'), "{e}");
+        // The device still works, and no error is left over.
+        gpu.wait().unwrap();
+        acct.buffer(&gpu, "small", 64, wgpu::BufferUsages::COPY_DST)
+            .unwrap();
+    }
+
+    #[test]
+    fn adapter_numbers_are_indices_only() {
+        // Two adapters; "2" is no index, and must not match "256 bits" in a name.
+        let all = ["llvmpipe (LLVM 15.0.6, 256 bits)", "Other GPU"];
+        let name = |a: &&str| a.to_string();
+        assert_eq!(pick_adapter("2", &all, name), None);
+        assert_eq!(pick_adapter("1", &all, name), Some(&"Other GPU"));
+        assert_eq!(pick_adapter("LLVMpipe", &all, name), Some(&all[0]));
+        assert_eq!(pick_adapter("256 bits", &all, name), Some(&all[0]));
+        assert_eq!(pick_adapter("nvidia", &all, name), None);
     }
 }

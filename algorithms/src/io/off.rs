@@ -23,6 +23,8 @@ pub fn read_off(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
 pub fn parse_off(bytes: &[u8], source: &str, opts: &LoadOptions) -> Result<Mesh> {
     let text = std::str::from_utf8(bytes)
         .map_err(|e| Error::input(source, format!("not a text file ({e})")))?;
+    // A UTF-8 byte-order mark is accepted (and ignored), as in every reader.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     // Significant lines with their 1-based line numbers.
     let mut lines = text.lines().enumerate().filter_map(|(i, l)| {
         let l = l.split('#').next().unwrap_or("").trim();

@@ -559,4 +559,54 @@ mod tests {
             }
         }
     }
+
+    mod fuzz_plot3d {
+        use super::*;
+        use crate::io::vtk::tests::fuzz::*;
+        use proptest::prelude::*;
+
+        /// Pairs in several layouts: float32 and float64, both byte orders, markers, grid
+        /// count, IBLANK, trailing bytes after q.
+        fn samples() -> Vec<(Vec<u8>, Vec<u8>)> {
+            Variant::all()
+                .step_by(3)
+                .enumerate()
+                .map(|(k, v)| files(v, if k % 4 == 0 { 8 } else { 0 }))
+                .collect()
+        }
+
+        proptest! {
+            #![proptest_config(config())]
+            /// Mutated and truncated xyz and q files (dimensions included: the snippets hold
+            /// 0x7fffffff) give Ok or an Err of one line, never a panic; a mesh that loads has
+            /// finite positions.
+            #[test]
+            fn plot3d_reader_never_panics(
+                which in 0usize..11,
+                field in 0usize..7,
+                split in 0usize..2,
+                xmuts in prop::collection::vec(mutation(), 0..5),
+                qmuts in prop::collection::vec(mutation(), 0..5),
+            ) {
+                thread_local!(static SAMPLES: Vec<(Vec<u8>, Vec<u8>)> = samples());
+                let (x, q) = SAMPLES.with(|s| {
+                    let (x, q) = &s[which % s.len()];
+                    (apply(x, &xmuts), apply(q, &qmuts))
+                });
+                let scalar = PLOT3D_FIELDS.get(field).map(|f| f.to_string()).unwrap_or("bogus".into());
+                let opts = LoadOptions {
+                    split: [None, Some(Split::Six)][split],
+                    scalar: Some(scalar),
+                    ..Default::default()
+                };
+                match parse_plot3d(&x, &q, "f.xyz", "f.q", &opts) {
+                    Ok(m) => prop_assert!(m.num_tets() > 0),
+                    Err(e) => {
+                        let m = e.to_string();
+                        prop_assert!(!m.contains('\n'), "{}", m);
+                    }
+                }
+            }
+        }
+    }
 }

@@ -40,6 +40,9 @@ struct Cur<'a> {
     line: usize,
     src: &'a str,
     binary: bool,
+    /// The line terminator: `\n` (with or without `\r` before it), or `\r` for a file with
+    /// CR-only line endings (classic Mac), detected from the first line.
+    eol: u8,
 }
 
 impl<'a> Cur<'a> {
@@ -53,7 +56,7 @@ impl<'a> Cur<'a> {
 
     fn skip_ws(&mut self) {
         while self.pos < self.b.len() && self.b[self.pos].is_ascii_whitespace() {
-            if self.b[self.pos] == b'\n' {
+            if self.b[self.pos] == self.eol {
                 self.line += 1;
             }
             self.pos += 1;
@@ -67,7 +70,8 @@ impl<'a> Cur<'a> {
         }
         let start = self.pos;
         let l = self.line;
-        let end = match self.b[start..].iter().position(|&c| c == b'\n') {
+        let eol = self.eol;
+        let end = match self.b[start..].iter().position(|&c| c == eol) {
             Some(i) => {
                 self.pos = start + i + 1;
                 self.line += 1;
@@ -221,7 +225,7 @@ impl<'a> Cur<'a> {
         let end = self.pos + bytes;
         self.line += self.b[self.pos..end]
             .iter()
-            .filter(|&&c| c == b'\n')
+            .filter(|&&c| c == self.eol)
             .count();
         self.pos = end;
     }
@@ -286,12 +290,20 @@ enum Mode {
 
 /// Parses a VTK legacy file held in memory; `source` names it in messages.
 pub fn parse_vtk(bytes: &[u8], source: &str, opts: &LoadOptions) -> Result<Mesh> {
+    // A UTF-8 byte-order mark is accepted (and ignored), as in every reader.
+    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+    // CR-only line endings: the first line ends in a lone '\r'.
+    let eol = match bytes.iter().position(|&c| c == b'\n' || c == b'\r') {
+        Some(i) if bytes[i] == b'\r' && bytes.get(i + 1) != Some(&b'\n') => b'\r',
+        _ => b'\n',
+    };
     let mut c = Cur {
         b: bytes,
         pos: 0,
         line: 1,
         src: source,
         binary: false,
+        eol,
     };
     let header = c
         .raw_line()

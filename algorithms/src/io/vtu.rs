@@ -159,8 +159,10 @@ impl Doc<'_> {
         }
     }
 
-    /// The decoded (and decompressed) bytes of a binary or appended array.
-    fn payload(&self, a: &Array) -> Result<Vec<u8>> {
+    /// The decoded (and decompressed) bytes of a binary or appended array. `limit`: the byte
+    /// count the array must have when known (a compressed array claiming more is refused before
+    /// anything is inflated).
+    fn payload(&self, a: &Array, limit: Option<u64>) -> Result<Vec<u8>> {
         match a.format {
             Format::Binary => {
                 let t: Vec<u8> = a
@@ -168,7 +170,7 @@ impl Doc<'_> {
                     .bytes()
                     .filter(|c| !c.is_ascii_whitespace())
                     .collect();
-                self.payload_b64(a, &t)
+                self.payload_b64(a, &t, limit)
             }
             Format::Appended => {
                 let Some((raw, data)) = self.appended else {
@@ -185,7 +187,7 @@ impl Doc<'_> {
                     ));
                 }
                 if raw {
-                    self.payload_raw(a, &data[a.offset..])
+                    self.payload_raw(a, &data[a.offset..], limit)
                 } else {
                     let end = self
                         .offsets
@@ -199,14 +201,14 @@ impl Doc<'_> {
                         .copied()
                         .filter(|c| !c.is_ascii_whitespace())
                         .collect();
-                    self.payload_b64(a, &t)
+                    self.payload_b64(a, &t, limit)
                 }
             }
             Format::Ascii => Err(Error::Internal("payload of an ascii array".into())),
         }
     }
 
-    fn payload_raw(&self, a: &Array, s: &[u8]) -> Result<Vec<u8>> {
+    fn payload_raw(&self, a: &Array, s: &[u8], limit: Option<u64>) -> Result<Vec<u8>> {
         let hs = self.hs;
         let short = || self.err(a, "appended data ends inside this array (truncated file?)");
         if s.len() < hs {
@@ -238,7 +240,7 @@ impl Doc<'_> {
                 )
             })?;
         let header: Vec<u64> = s[hs..hlen].chunks_exact(hs).map(|c| self.uint(c)).collect();
-        self.inflate(a, &header, &s[hlen..])
+        self.inflate(a, &header, &s[hlen..], limit)
     }
 
     fn b64(&self, a: &Array, t: &[u8]) -> Result<Vec<u8>> {
@@ -246,7 +248,7 @@ impl Doc<'_> {
             .map_err(|e| self.err(a, format!("bad base64 data: {e}")))
     }
 
-    fn payload_b64(&self, a: &Array, t: &[u8]) -> Result<Vec<u8>> {
+    fn payload_b64(&self, a: &Array, t: &[u8], limit: Option<u64>) -> Result<Vec<u8>> {
         let hs = self.hs;
         let chars = |bytes: usize| bytes.div_ceil(3).saturating_mul(4);
         let short = || self.err(a, "base64 data too short for its header");
@@ -305,16 +307,23 @@ impl Doc<'_> {
         }
         let header: Vec<u64> = h[hs..hlen].chunks_exact(hs).map(|c| self.uint(c)).collect();
         match B64.decode(&t[hc..]) {
-            Ok(d) => self.inflate(a, &header, &d),
+            Ok(d) => self.inflate(a, &header, &d, limit),
             Err(_) => {
                 let all = self.b64(a, t)?;
-                self.inflate(a, &header, all.get(hlen..).unwrap_or(&[]))
+                self.inflate(a, &header, all.get(hlen..).unwrap_or(&[]), limit)
             }
         }
     }
 
-    /// `header` = block size, last block size, compressed sizes.
-    fn inflate(&self, a: &Array, header: &[u64], data: &[u8]) -> Result<Vec<u8>> {
+    /// `header` = block size, last block size, compressed sizes; `limit` = the bytes the array
+    /// must have, when known.
+    fn inflate(
+        &self,
+        a: &Array,
+        header: &[u64],
+        data: &[u8],
+        limit: Option<u64>,
+    ) -> Result<Vec<u8>> {
         let (bs, last, sizes) = (header[0], header[1], &header[2..]);
         let nb = sizes.len() as u64;
         if nb == 0 {
@@ -346,6 +355,15 @@ impl Doc<'_> {
             return Err(bad(format!(
                 "header claims {total} bytes uncompressed from {ctotal} compressed"
             )));
+        }
+        // A decompression bomb (a few MB inflating to GB for 128 points) is refused here, from
+        // the header alone, before a byte is inflated.
+        if let Some(want) = limit {
+            if total > want {
+                return Err(bad(format!(
+                    "header says {total} bytes uncompressed, but the array's values take {want}"
+                )));
+            }
         }
         let mut out = Vec::with_capacity(total as usize);
         let mut at = 0usize;
@@ -401,7 +419,8 @@ impl Doc<'_> {
     /// The decoded bytes of a binary (inline or appended) array: a whole number of `ty` values,
     /// `expected` of them when given.
     fn binary(&self, a: &Array, ty: DType, expected: Option<usize>) -> Result<Vec<u8>> {
-        let p = self.payload(a)?;
+        let limit = expected.and_then(|n| (n as u64).checked_mul(ty.size() as u64));
+        let p = self.payload(a, limit)?;
         if p.len() % ty.size() != 0 {
             return Err(self.err(
                 a,
@@ -1163,6 +1182,44 @@ pub(crate) mod tests {
         }
         out.extend(b"</VTKFile>\n");
         out
+    }
+
+    #[test]
+    fn a_decompression_bomb_is_refused_before_inflating() {
+        // 16 MiB of zeros in one zlib block (~16 KB compressed) for a 5-point Float32 array:
+        // refused from the header (before the fix it was inflated whole, then counted).
+        let raw = vec![0u8; 16 << 20];
+        let mut e = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::best());
+        e.write_all(&raw).unwrap();
+        let c = e.finish().unwrap();
+        let mut h = Vec::new();
+        for x in [1u32, raw.len() as u32, raw.len() as u32, c.len() as u32] {
+            h.extend(x.to_le_bytes());
+        }
+        let arr = format!(
+            "<DataArray type=\"Float32\" Name=\"pressure\" format=\"binary\">{}{}</DataArray>",
+            B64.encode(&h),
+            B64.encode(&c)
+        );
+        let text = ASCII
+            .replace(
+                r#"<DataArray type="Float32" Name="pressure" format="ascii">10 11 12 13 14</DataArray>"#,
+                &arr,
+            )
+            .replace(
+                r#"byte_order="LittleEndian">"#,
+                r#"byte_order="LittleEndian" compressor="vtkZLibDataCompressor">"#,
+            );
+        assert!(text.contains("vtkZLib") && text.contains("format=\"binary\""));
+        let e = parse_vtu(text.as_bytes(), "bomb.vtu", &LoadOptions::default())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("bomb.vtu:")
+                && e.contains("16777216 bytes uncompressed")
+                && e.contains("take 20"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -493,9 +493,7 @@ impl LatticeSort {
 pub(crate) fn transparency(mesh: &Mesh, tf: &TransferFunction) -> Vec<bool> {
     use rayon::prelude::*;
     let map = tf.scalar_map(mesh.scalar_range());
-    let pts = &tf.points;
-    let lo = pts[0].s.min(0.0);
-    let hi = pts[pts.len() - 1].s.max(1.0);
+    let (lo, hi) = tf.table_domain();
     let margin = 2.0 * (hi - lo) / 127.0;
     let s: Vec<f64> = mesh.scalars().iter().map(|&v| map.s(v)).collect();
     mesh.tets()
@@ -507,7 +505,7 @@ pub(crate) fn transparency(mesh: &Mesh, tf: &TransferFunction) -> Vec<bool> {
             // τ is piecewise linear: its maximum over [a, b] is at an end or a control point.
             tf.eval(a).1 > 0.0
                 || tf.eval(b).1 > 0.0
-                || pts.iter().any(|p| p.s > a && p.s < b && p.tau > 0.0)
+                || tf.points_between(a, b).iter().any(|p| p.tau > 0.0)
         })
         .collect()
 }

@@ -194,3 +194,22 @@ fn pt_classify(verts: array<PtVertex, 4>, persp: bool, inv_l: f32) -> PtThick {
     }
     return out;
 }
+
+// Whether a fan triangle (thick vertex `thick` in pixels; silhouette vertices `qa`, `qb`
+// snapped) is too thin for the GPU's rasterizer: its altitude is at most PT_MIN_ALTITUDE
+// pixels. Rasterizers snap vertices to 1/256 pixel (or coarser), so such a triangle covers a
+// pixel centre only through that rounding, and its attributes are then extrapolated far outside
+// the triangle: a face seen edge-on in perspective (its plane through the eye) gave a zero-area
+// fan triangle through a pixel centre and α 0.996 where the reference has 0.557. The CPU
+// rasterizer (exact, top-left rule) covers no pixel centre with a zero-area triangle, so
+// dropping these keeps the GPU at the CPU's image.
+const PT_MIN_ALTITUDE: f32 = 0.00390625; // 1/256 pixel
+
+fn pt_fan_too_thin(thick: vec2<f32>, qa: vec2<i32>, qb: vec2<i32>) -> bool {
+    let unit = 1.0 / f32(1u << PT_SUBPIXEL_BITS);
+    let a = vec2<f32>(qa) * unit - thick;
+    let b = vec2<f32>(qb) * unit - thick;
+    let area2 = abs(a.x * b.y - a.y * b.x);
+    let longest = max(max(length(a), length(b)), length(b - a));
+    return area2 <= longest * PT_MIN_ALTITUDE;
+}

@@ -112,6 +112,10 @@ fn hapt_fan_vertex(vi: u32, x: array<vec4<f32>, 4>) -> HaptVarying {
     if tri >= pt_ntri(th.entry) {
         return hapt_unused();
     }
+    // All three corners decide alike, so a too-thin triangle is dropped whole.
+    if pt_fan_too_thin(th.thick, pv[pt_fan(th.entry, tri)].q, pv[pt_fan(th.entry, tri + 1u)].q) {
+        return hapt_unused();
+    }
     var shade = 1.0;
     if (hp.mode & 2u) != 0u {
         shade = hapt_shade(x);

@@ -1,7 +1,8 @@
 // ptint_fan.vert.wgsl — ptint pass 2 (PTINT §3.2): the fans of the sorted tets, by vertex
 // pulling. Instance i is the i-th drawn tet back to front (`order`, built on the CPU after the
 // sort); its 12 vertices are triangles k = 0..3 of the fan, (thick, fan(k), fan(k + 1)) with
-// the table's fan order; triangles k ≥ ntri are degenerate. Feeds volume.frag.wgsl.
+// the table's fan order; triangles k ≥ ntri are degenerate, and so are triangles too thin for
+// the rasterizer (pt_fan_too_thin). Feeds volume.frag.wgsl.
 // Libraries: view.wgsl, classify.wgsl, volume.wgsl, ptint.wgsl.
 
 @group(2) @binding(0) var<storage, read> pverts: array<PtintVert>;
@@ -17,6 +18,12 @@ fn vs_fan(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -> V
     let tri = vi / 3u;
     let corner = vi % 3u;
     if tri >= pt_ntri(entry) {
+        return volume_unused();
+    }
+    // All three corners decide alike, so a too-thin triangle is dropped whole.
+    let qa = pverts[tets[t][pt_fan(entry, tri)]].q;
+    let qb = pverts[tets[t][pt_fan(entry, tri + 1u)]].q;
+    if pt_fan_too_thin(rec.thick, qa, qb) {
         return volume_unused();
     }
     if corner == 0u {

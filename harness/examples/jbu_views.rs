@@ -6,7 +6,8 @@
 //! e.g. `raycast 512 64,128,256 blunt,post linear,bilateral,gauss,bilateral:s=0.003 /tmp/jbu`.
 //! A method is `name[:k=K][:s=SIGMA][:r=R]`. Prints one line per view and a summary per
 //! (dataset, low size): mean and worst RMSE per method and the views where it loses to linear.
-//! With DUMP_DIR, writes the reference and each method's image for every view as PNG.
+//! With DUMP_DIR, writes the reference and each method's image for every view as PNG;
+//! `JBU_VIEWS=n` keeps the first n views.
 
 use std::time::Instant;
 
@@ -67,7 +68,11 @@ fn main() {
         // rmse[low][method][view]
         let mut rmse = vec![vec![Vec::new(); mnames.len()]; lows.len()];
         let mut times = vec![vec![(0.0, 0.0); mnames.len()]; lows.len()];
-        let views = cube_views();
+        // JBU_VIEWS=n: only the first n views (for timing runs).
+        let mut views = cube_views();
+        if let Some(n) = std::env::var("JBU_VIEWS").ok().and_then(|v| v.parse().ok()) {
+            views.truncate(n);
+        }
         for (vi, v) in views.iter().enumerate() {
             let cam = Camera::new(&mesh.bbox(), *v, Projection::Ortho, full, full);
             let t0 = Instant::now();

@@ -100,8 +100,9 @@ const W_MIN: f32 = 1e-3;
 /// Range weight above which a sample counts as on the pixel's side (no depth edge).
 const G_FLAT: f32 = 0.99;
 
-/// A low-res sample with its depth-layer vector (unused layers 0).
-type Sample = ([f32; 4], [f32; 4]);
+/// A low-res sample with its depth-layer vector (unused layers 0) and its number of valid
+/// layers (at most k).
+type Sample = ([f32; 4], [f32; 4], usize);
 
 pub(super) fn upsample(
     low: &Image,
@@ -179,6 +180,7 @@ pub(super) fn upsample(
                     (
                         low.get(a, b),
                         std::array::from_fn(|c| if c < k { d[c] } else { 0.0 }),
+                        (low_l.count[(b * lw + a) as usize] as usize).min(k),
                     )
                 })
                 .collect();
@@ -365,6 +367,7 @@ impl Filter<'_> {
         let w = self.full.width as usize;
         let (lw, samples, inv2s2, inv2c2) = (self.lw, self.samples, self.inv2s2, self.inv2c2);
         let depth = &self.full.depth;
+        let count = &self.full.count;
         out.pixels
             .par_chunks_mut(w)
             .enumerate()
@@ -376,6 +379,7 @@ impl Filter<'_> {
                 for (i, (o, ax)) in row.iter_mut().zip(cols).enumerate() {
                     let base = (j * w + i) * K;
                     let rp: [f32; K] = std::array::from_fn(|c| depth[base + c]);
+                    let np = (count[j * w + i] as usize).min(K);
                     let px: [f32; K] = std::array::from_fn(|c| gx[base + c]);
                     let py: [f32; K] = std::array::from_fn(|c| gy[base + c]);
                     let ca = [ax.a0 as usize, ax.a1 as usize];
@@ -388,11 +392,9 @@ impl Filter<'_> {
                     for y in 0..2 {
                         for x in 0..2 {
                             let s = &samples[rb[y] + ca[x]];
-                            let mut d2 = 0.0f32;
-                            for c in 0..K {
-                                let e = rp[c] + px[c] * dx[x] + py[c] * dy[y] - s.1[c];
-                                d2 += e * e;
-                            }
+                            let pred: [f32; K] =
+                                std::array::from_fn(|c| rp[c] + px[c] * dx[x] + py[c] * dy[y]);
+                            let d2 = range_d2::<K>(&pred, &rp, np, &s.1, s.2);
                             let g = exp_neg(d2 * inv2s2);
                             edge |= g < G_FLAT;
                             gd[y][x] = g;
@@ -440,6 +442,62 @@ impl Filter<'_> {
                     };
                 }
             });
+    }
+}
+
+/// Squared range distance between the pixel's layers extrapolated to a sample (`pred`; `rp`
+/// unextrapolated, `np` valid) and the sample's layers (`rq`, `nq` valid). With equal counts it
+/// is the squared Euclidean distance of eq. (4). When one side has two or four crossings more,
+/// the extra crossings are matched as pairs that the other side lacks, each costing its own
+/// separation: a pair of boundary crossings is born with zero separation where a ray grazes the
+/// boundary (an oblique silhouette, the rim of a cavity), and there the image is continuous, so
+/// a sample just outside such a rim still counts. Other count differences (layers cut off at k)
+/// compare the padded vectors (missing layers 1.0).
+#[inline]
+fn range_d2<const K: usize>(
+    pred: &[f32; K],
+    rp: &[f32; K],
+    np: usize,
+    rq: &[f32; 4],
+    nq: usize,
+) -> f32 {
+    let plain = || {
+        let mut d2 = 0.0;
+        for c in 0..K {
+            let e = pred[c] - rq[c];
+            d2 += e * e;
+        }
+        d2
+    };
+    if np == nq {
+        return plain();
+    }
+    // `long` has the extra pair(s); `lp` its unextrapolated values for the pair cost.
+    let (long, lp, nl, short, ns): (&[f32], &[f32], usize, &[f32], usize) = if np > nq {
+        (pred, rp, np, rq, nq)
+    } else {
+        (rq, rq, nq, pred, np)
+    };
+    match nl - ns {
+        2 => {
+            let mut best = f32::INFINITY;
+            for i in 0..nl - 1 {
+                let sep = lp[i + 1] - lp[i];
+                let mut d2 = sep * sep;
+                for c in 0..ns {
+                    let l = if c < i { long[c] } else { long[c + 2] };
+                    let e = l - short[c];
+                    d2 += e * e;
+                }
+                best = best.min(d2);
+            }
+            best
+        }
+        4 => {
+            let (a, b) = (lp[1] - lp[0], lp[3] - lp[2]);
+            a * a + b * b
+        }
+        _ => plain(),
     }
 }
 

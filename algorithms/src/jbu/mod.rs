@@ -8,16 +8,31 @@
 //!   than `k` layers gets 1.0 in the missing ones (so background is the vector of ones).
 //!   Coverage is decided at the pixel centre with exact 2-D orientation predicates and a
 //!   top-left tie rule, so a pixel centre on an edge shared by two faces is counted once.
-//! - [`upsample`] is the filter: `nearest`, `linear` (bilinear) or `bilateral`, the joint
-//!   bilateral filter of the paper, eq. (3)–(4):
-//!   `S_p = 1/k_p Σ_q I_q f(‖p − q‖) g(‖R_p − R_q‖)` over the low-res samples `q` around `p`, with a
-//!   Gaussian spatial kernel of σ = Ω/2 full-res pixels (Ω the upsampling factor, i.e. half a
-//!   low-res pixel) and a Gaussian range kernel of σ_r (default 0.01) on the Euclidean distance
-//!   between the full-res pixel's depth-layer vector `R_p` and the low-res sample's `R_q` (the
-//!   depth layers rasterised at the low-res pixel centre, i.e. the full-size layers sampled
-//!   there). The weights are normalised in the log domain (the largest exponent is subtracted),
-//!   so a pixel whose neighbours all differ in depth by many σ_r takes the best-matching samples
-//!   instead of dividing by zero.
+//! - [`upsample`] is the filter (eq. (3): `S_p = 1/k_p Σ_q I_q f(p, q) g(R_p, R_q)` over low-res
+//!   samples `q`), one of:
+//!   - `nearest`, `linear` (bilinear, clamp-to-edge);
+//!   - `bilateral` (default): f is the bilinear tent over the 2×2 samples around `p` — the
+//!     support of the linear interpolation it replaces, as the paper matches Ω to it — and g the
+//!     Gaussian of eq. (4) on the distance between the sample's layer vector `R_q` (the layers at
+//!     the low-res pixel centre) and the full-size guide at `p` extrapolated to `q` along its
+//!     per-layer slopes (minmod of the one-sided differences, so a slope never reaches across
+//!     an edge). Where the guide is planar over the four samples g = 1 and the result is
+//!     bilinear to rounding; across a depth edge the samples beyond it drop out. Crossings that
+//!     one side has and the other lacks are matched in pairs costing their own separation (a
+//!     pair is born with zero separation where a ray grazes the boundary, and the image is
+//!     continuous there). Across an edge, a sample whose colour continues the pixel's side
+//!     (within σ_c on premultiplied RGBA) is kept. If less than 1e-3 of the weight is left,
+//!     the 2r×2r window of `gauss` with the same extrapolated range term decides.
+//!   - `gauss`: the filter as first built here: a Gaussian spatial kernel of σ = Ω/2 full-res
+//!     pixels over 2r×2r samples and g on the plain distance `‖R_p − R_q‖`, weights normalised
+//!     in the log domain (a pixel whose samples all differ by many σ_r takes the best match).
+//!
+//!   σ_r's rule: it is in units of the depth normalisation above (1 = the bounding sphere's
+//!   diameter 2R along the view axis), so it does not depend on the image size; a depth
+//!   mismatch of σ_r (after extrapolation) keeps e^−½ of a sample's weight, 3.7 σ_r about 1e-3.
+//!   The default 0.02 (k = 4 layers) was chosen on the 14 cube views of spx, blunt, post and
+//!   comb at 8×, 4× and 2× (harness/examples/jbu_views.rs); the paper's 0.01 cuts too often on
+//!   oblique faces, whose extrapolation error grows with the sample distance.
 //!
 //! Low-res and full-res images cover the same image-plane square (CONVENTIONS §2), so a
 //! full-res pixel centre maps to low-res continuous coordinates by the ratio of pixel sizes.
@@ -89,7 +104,7 @@ pub struct Params {
     /// σ of the Gaussian colour-consistency kernel on premultiplied RGBA (bilateral only).
     pub sigma_c: f64,
     /// Low-res samples on each side of the point: `2·radius` per axis (bilateral only; 1 is the
-    /// 2×2 bilinear footprint, 2 the 4×4 default).
+    /// 2×2 bilinear footprint, 2 the 4×4 default; `gauss`, and `bilateral`'s fallback).
     pub radius: usize,
 }
 
@@ -97,8 +112,8 @@ impl Default for Params {
     fn default() -> Self {
         Params {
             method: Method::Bilateral,
-            k: 2,
-            sigma_r: 0.01,
+            k: 4,
+            sigma_r: 0.02,
             sigma_c: 0.03,
             radius: 2,
         }

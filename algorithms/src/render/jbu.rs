@@ -9,8 +9,9 @@
 //!   full image's aspect ratio) or `WxH`. It must not exceed the full image; equal to it, the
 //!   inner image is returned unchanged.
 //! - options, comma-separated after the size: `method=bilateral|gauss|linear|nearest` (default
-//!   bilateral; see [`crate::jbu`] for each), `k=1..4` depth layers (default 2), `sigma=F` range σ on normalised depth
-//!   (default 0.01), `r=1..8` low-res samples on each side (default 2: a 4×4 footprint).
+//!   bilateral; see [`crate::jbu`] for each), `k=1..4` depth layers (default 4), `sigma=F`
+//!   range σ on normalised depth (default 0.02), `c=F` colour-consistency σ on premultiplied
+//!   RGBA (default 0.03), `r=1..8` low-res samples on each side (default 2: a 4×4 window).
 //!
 //! Examples: `jbu:raycast@128`, `jbu:cpu-pt@256x256`, `jbu:raycast@128,method=linear`,
 //! `jbu:raycast@256,k=4,sigma=0.02`.
@@ -33,7 +34,7 @@ use crate::tf::TransferFunction;
 pub static JBU: RendererInfo = RendererInfo {
     name: "jbu:<renderer>@<size>",
     description: "joint bilateral upsampling of <renderer> rendered at <size> (N or WxH); \
-                  options ,method=bilateral|gauss|linear|nearest ,k=1..4 ,sigma=0.01 ,r=2",
+                  options ,method=bilateral|gauss|linear|nearest ,k=1..4 ,sigma=0.02 ,c=0.03 ,r=2",
     sorts: &[],
     integrators: &["as <renderer>"],
     make: |_| {
@@ -84,7 +85,7 @@ impl Spec {
     pub fn parse(name: &str) -> Result<Spec> {
         let bad = |why: String| {
             Error::Input(format!(
-                "renderer '{name}': {why} (expected jbu:<renderer>@<N|WxH>[,method=bilateral|gauss|linear|nearest][,k=1..4][,sigma=F][,r=N])"
+                "renderer '{name}': {why} (expected jbu:<renderer>@<N|WxH>[,method=bilateral|gauss|linear|nearest][,k=1..4][,sigma=F][,c=F][,r=N])"
             ))
         };
         let body = name

@@ -54,32 +54,31 @@ fn minmod(a: f32, b: f32) -> f32 {
     }
 }
 
-/// Per pixel and layer the guide's slope in x and y (normalised depth per full-res pixel), by
-/// [`minmod`]; at the image border the one inner difference.
-fn gradients(l: &DepthLayers) -> (Vec<f32>, Vec<f32>) {
-    let (w, h, k) = (l.width as usize, l.height as usize, l.k);
-    let d = &l.depth;
-    let mut gx = vec![0.0f32; w * h * k];
-    let mut gy = vec![0.0f32; w * h * k];
-    gx.par_chunks_mut(w * k)
-        .zip(gy.par_chunks_mut(w * k))
-        .enumerate()
-        .for_each(|(j, (rx, ry))| {
-            let row = |jj: usize| &d[jj * w * k..(jj + 1) * w * k];
-            let (up, mid, dn) = (row(j.saturating_sub(1)), row(j), row((j + 1).min(h - 1)));
-            for i in 0..w {
-                for c in 0..k {
-                    let o = i * k + c;
-                    let v = mid[o];
-                    let back = if i > 0 { v - mid[o - k] } else { f32::NAN };
-                    let fwd = if i + 1 < w { mid[o + k] - v } else { f32::NAN };
-                    rx[o] = one_or_minmod(back, fwd);
-                    let back = if j > 0 { v - up[o] } else { f32::NAN };
-                    let fwd = if j + 1 < h { dn[o] - v } else { f32::NAN };
-                    ry[o] = one_or_minmod(back, fwd);
-                }
-            }
-        });
+/// The guide's slope in x and y at pixel (i, j) per layer (normalised depth per full-res
+/// pixel), by [`minmod`]; at the image border the one inner difference.
+#[inline]
+fn slopes<const K: usize>(
+    d: &[f32],
+    i: usize,
+    j: usize,
+    w: usize,
+    h: usize,
+) -> ([f32; K], [f32; K]) {
+    let o = (j * w + i) * K;
+    let (l, r) = (i > 0, i + 1 < w);
+    let (u, n) = (j > 0, j + 1 < h);
+    let gx = std::array::from_fn(|c| {
+        let v = d[o + c];
+        let back = if l { v - d[o - K + c] } else { f32::NAN };
+        let fwd = if r { d[o + K + c] - v } else { f32::NAN };
+        one_or_minmod(back, fwd)
+    });
+    let gy = std::array::from_fn(|c| {
+        let v = d[o + c];
+        let back = if u { v - d[o - w * K + c] } else { f32::NAN };
+        let fwd = if n { d[o + w * K + c] - v } else { f32::NAN };
+        one_or_minmod(back, fwd)
+    });
     (gx, gy)
 }
 
@@ -204,13 +203,12 @@ pub(super) fn upsample(
                         }
                     });
             } else {
-                let (gx, gy) = gradients(full_l);
                 let cols: Vec<Axis> = ux.iter().map(|&u| axis(u, lw, omega)).collect();
                 match k {
-                    1 => f.edge_aware::<1>(&mut out, &cols, &uy, omega, lh, &gx, &gy),
-                    2 => f.edge_aware::<2>(&mut out, &cols, &uy, omega, lh, &gx, &gy),
-                    3 => f.edge_aware::<3>(&mut out, &cols, &uy, omega, lh, &gx, &gy),
-                    _ => f.edge_aware::<4>(&mut out, &cols, &uy, omega, lh, &gx, &gy),
+                    1 => f.edge_aware::<1>(&mut out, &cols, &uy, omega, lh),
+                    2 => f.edge_aware::<2>(&mut out, &cols, &uy, omega, lh),
+                    3 => f.edge_aware::<3>(&mut out, &cols, &uy, omega, lh),
+                    _ => f.edge_aware::<4>(&mut out, &cols, &uy, omega, lh),
                 }
             }
         }
@@ -353,7 +351,6 @@ impl Filter<'_> {
     /// beyond it drop out. When less than [`W_MIN`] of the weight is left (every bilinear sample
     /// is across an edge), the 2r×2r Gaussian window with the same extrapolated range term
     /// decides.
-    #[allow(clippy::too_many_arguments)]
     fn edge_aware<const K: usize>(
         &self,
         out: &mut Image,
@@ -361,10 +358,8 @@ impl Filter<'_> {
         uy: &[f64],
         omega: f64,
         lh: u32,
-        gx: &[f32],
-        gy: &[f32],
     ) {
-        let w = self.full.width as usize;
+        let (w, h) = (self.full.width as usize, self.full.height as usize);
         let (lw, samples, inv2s2, inv2c2) = (self.lw, self.samples, self.inv2s2, self.inv2c2);
         let depth = &self.full.depth;
         let count = &self.full.count;
@@ -380,8 +375,7 @@ impl Filter<'_> {
                     let base = (j * w + i) * K;
                     let rp: [f32; K] = std::array::from_fn(|c| depth[base + c]);
                     let np = (count[j * w + i] as usize).min(K);
-                    let px: [f32; K] = std::array::from_fn(|c| gx[base + c]);
-                    let py: [f32; K] = std::array::from_fn(|c| gy[base + c]);
+                    let (px, py) = slopes::<K>(depth, i, j, w, h);
                     let ca = [ax.a0 as usize, ax.a1 as usize];
                     let tx = [1.0 - ax.f, ax.f];
                     let dx = [ax.d0, ax.d1];

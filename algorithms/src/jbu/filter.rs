@@ -295,12 +295,12 @@ impl Filter<'_> {
         let mut xs = [0.0f32; 256];
         let mut idx = [usize::MAX; 256];
         let mut xmin = f32::INFINITY;
-        for y in 0..n {
-            if ey[y] == f32::NEG_INFINITY {
+        for (y, &eyv) in ey.iter().enumerate().take(n) {
+            if eyv == f32::NEG_INFINITY {
                 continue;
             }
-            for x in 0..n {
-                if ex[x] == f32::NEG_INFINITY {
+            for (x, &exv) in ex.iter().enumerate().take(n) {
+                if exv == f32::NEG_INFINITY {
                     continue;
                 }
                 let m = y * n + x;
@@ -314,7 +314,7 @@ impl Filter<'_> {
                     };
                     d2 += (pred - rq[c]) * (pred - rq[c]);
                 }
-                let xr = d2 * self.inv2s2 - ex[x] - ey[y];
+                let xr = d2 * self.inv2s2 - exv - eyv;
                 xs[m] = xr;
                 idx[m] = q;
                 xmin = xmin.min(xr);
@@ -393,8 +393,8 @@ impl Filter<'_> {
                             edge |= g < G_FLAT;
                             gd[y][x] = g;
                             let wgt = tx[x] * ty[y] * g;
-                            for c in 0..4 {
-                                acc[c] += wgt * s.0[c];
+                            for (a, v) in acc.iter_mut().zip(&s.0) {
+                                *a += wgt * v;
                             }
                             wsum += wgt;
                         }
@@ -418,13 +418,13 @@ impl Filter<'_> {
                         for x in 0..2 {
                             let s = &samples[rb[y] + ca[x]];
                             let mut c2 = 0.0f32;
-                            for c in 0..4 {
-                                c2 += (s.0[c] - same[c]) * (s.0[c] - same[c]);
+                            for (v, m) in s.0.iter().zip(&same) {
+                                c2 += (v - m) * (v - m);
                             }
                             let g = gd[y][x].max(exp_neg(c2 * inv2c2));
                             let wgt = tx[x] * ty[y] * g;
-                            for c in 0..4 {
-                                acc[c] += wgt * s.0[c];
+                            for (a, v) in acc.iter_mut().zip(&s.0) {
+                                *a += wgt * v;
                             }
                             wsum += wgt;
                         }

@@ -4,9 +4,10 @@
 
 use algorithms::camera::{Camera, Projection, View};
 use algorithms::glam::DVec3;
+use algorithms::image::Image;
 use algorithms::io::split::{hex_corner, hex_split_pattern};
 use algorithms::io::Split;
-use algorithms::jbu::{BoundaryRaster, Method};
+use algorithms::jbu::{cube_views, upsample, BoundaryRaster, DepthLayers, Method, Params};
 use algorithms::metrics::compare;
 use algorithms::render::{self, RenderOptions};
 use algorithms::tf::{TfPoint, TransferFunction};
@@ -254,4 +255,132 @@ fn bad_wrapper_names_are_one_line_input_errors() {
     assert!(matches!(r.render(&mesh, &cam), Err(Error::Input(_))));
     // info() answers with the inner renderer's entry (its sorts and integrators).
     assert_eq!(render::info("jbu:cpu-pt@128").unwrap().name, "cpu-pt");
+}
+
+/// Full 64² and low 16² cameras over the same square, and layers from `f(x, y)` (full-res pixel
+/// coordinates of the point; two layers per pixel, `None` = background).
+fn synthetic(
+    f: impl Fn(f64, f64) -> Option<[f32; 2]>,
+) -> (Camera, Camera, DepthLayers, DepthLayers) {
+    let mesh = kuhn_box(1, DVec3::ZERO, DVec3::ONE, |p| p.x);
+    let cam = |n| Camera::new(&mesh.bbox(), View::default(), Projection::Ortho, n, n);
+    let layers = |n: u32, omega: f64| {
+        let mut depth = Vec::new();
+        let mut count = Vec::new();
+        for j in 0..n {
+            for i in 0..n {
+                let v = f((i as f64 + 0.5) * omega, (j as f64 + 0.5) * omega);
+                depth.extend(v.unwrap_or([1.0; 2]));
+                count.push(if v.is_some() { 2 } else { 0 });
+            }
+        }
+        DepthLayers {
+            width: n,
+            height: n,
+            k: 2,
+            depth,
+            count,
+        }
+    };
+    (cam(64), cam(16), layers(64, 1.0), layers(16, 4.0))
+}
+
+fn bilateral() -> Params {
+    Params {
+        k: 2,
+        ..Params::default()
+    }
+}
+
+#[test]
+fn bilateral_is_bilinear_where_the_guide_is_planar() {
+    // A tilted slab: both layers planar, 0.002 and 0.001 normalised depth per full-res pixel
+    // (over 4 low-res pixels the depth changes by many σ_r, so a plain range term would cut).
+    let (full, low_cam, fl, ll) = synthetic(|x, y| {
+        let d = 0.2 + 0.002 * x + 0.001 * y;
+        Some([d as f32, (d + 0.1 + 0.0005 * x) as f32])
+    });
+    let mut low = Image::new(16, 16);
+    for j in 0..16 {
+        for i in 0..16 {
+            let h = ((i * 7 + j * 13) % 11) as f32 / 11.0;
+            low.set(i, j, [h, 1.0 - h, 0.5 * h, 0.8]);
+        }
+    }
+    let lin = Params {
+        method: Method::Linear,
+        ..Params::default()
+    };
+    let a = upsample(&low, &low_cam, &full, &lin, None).unwrap();
+    let b = upsample(&low, &low_cam, &full, &bilateral(), Some((&fl, &ll))).unwrap();
+    let worst = a
+        .pixels
+        .iter()
+        .zip(&b.pixels)
+        .flat_map(|(p, q)| p.iter().zip(q).map(|(x, y)| (x - y).abs()))
+        .fold(0.0f32, f32::max);
+    assert!(worst < 1e-3, "bilateral differs from bilinear by {worst}");
+}
+
+#[test]
+fn bilateral_does_not_mix_across_a_depth_edge() {
+    // Two slabs, the near one left of x = 27.3 full-res pixels (between low-res centres).
+    let near = |x: f64| x < 27.3;
+    let (full, low_cam, fl, ll) =
+        synthetic(|x, _| Some(if near(x) { [0.30, 0.40] } else { [0.60, 0.75] }));
+    let (ca, cb) = ([0.8, 0.2, 0.1, 0.9], [0.1, 0.1, 0.6, 0.5]);
+    let mut low = Image::new(16, 16);
+    for j in 0..16 {
+        for i in 0..16 {
+            low.set(i, j, if near((i as f64 + 0.5) * 4.0) { ca } else { cb });
+        }
+    }
+    let b = upsample(&low, &low_cam, &full, &bilateral(), Some((&fl, &ll))).unwrap();
+    let lin = Params {
+        method: Method::Linear,
+        ..Params::default()
+    };
+    let a = upsample(&low, &low_cam, &full, &lin, None).unwrap();
+    let mut mixed_linear = 0;
+    for j in 0..64 {
+        for i in 0..64 {
+            let want = if near(i as f64 + 0.5) { ca } else { cb };
+            let got = b.get(i, j);
+            for c in 0..4 {
+                assert!(
+                    (got[c] - want[c]).abs() < 1e-4,
+                    "pixel {i},{j}: {got:?} vs {want:?}"
+                );
+            }
+            mixed_linear += (a.get(i, j) != want) as usize;
+        }
+    }
+    assert!(
+        mixed_linear > 64,
+        "linear should blur the edge: {mixed_linear}"
+    );
+}
+
+#[test]
+fn the_cube_views_are_the_8_corners_and_6_faces() {
+    let v = cube_views();
+    assert_eq!(v.len(), 14);
+    let mut dirs: Vec<DVec3> = v.iter().map(|v| v.to_eye()).collect();
+    let corners = dirs.drain(..8).collect::<Vec<_>>();
+    for d in corners {
+        let s = d * 3f64.sqrt();
+        assert!((s.abs() - DVec3::ONE).length() < 1e-9, "{s}");
+    }
+    for d in &dirs {
+        let a = d.abs();
+        assert!(
+            (a.max_element() - 1.0).abs() < 1e-9 && a.min_element() < 1e-9,
+            "{d}"
+        );
+    }
+    for (i, a) in dirs.iter().enumerate() {
+        for b in &dirs[i + 1..] {
+            assert!((*a - *b).length() > 0.5);
+        }
+    }
 }

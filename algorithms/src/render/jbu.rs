@@ -8,9 +8,10 @@
 //! - `<low size>`: `N` (the longer side of the low image is N pixels, the other side keeps the
 //!   full image's aspect ratio) or `WxH`. It must not exceed the full image; equal to it, the
 //!   inner image is returned unchanged.
-//! - options, comma-separated after the size: `method=bilateral|linear|nearest` (default
-//!   bilateral), `k=1..4` depth layers (default 2), `sigma=F` range σ on normalised depth
-//!   (default 0.01), `r=1..8` low-res samples on each side (default 2: a 4×4 footprint).
+//! - options, comma-separated after the size: `method=bilateral|gauss|linear|nearest` (default
+//!   bilateral; see [`crate::jbu`] for each), `k=1..4` depth layers (default 4), `sigma=F`
+//!   range σ on normalised depth (default 0.02), `c=F` colour-consistency σ on premultiplied
+//!   RGBA (default 0.03), `r=1..8` low-res samples on each side (default 2: a 4×4 window).
 //!
 //! Examples: `jbu:raycast@128`, `jbu:cpu-pt@256x256`, `jbu:raycast@128,method=linear`,
 //! `jbu:raycast@256,k=4,sigma=0.02`.
@@ -34,7 +35,7 @@ use crate::tf::TransferFunction;
 pub static JBU: RendererInfo = RendererInfo {
     name: "jbu:<renderer>@<size>",
     description: "joint bilateral upsampling of <renderer> rendered at <size> (N or WxH); \
-                  options ,method=bilateral|linear|nearest ,k=1..4 ,sigma=0.01 ,r=2",
+                  options ,method=bilateral|gauss|linear|nearest ,k=1..4 ,sigma=0.02 ,c=0.03 ,r=2",
     sorts: &[],
     integrators: &["as <renderer>"],
     family: Family::Wrapper,
@@ -113,7 +114,7 @@ impl Spec {
     pub fn parse(name: &str) -> Result<Spec> {
         let bad = |why: String| {
             Error::Input(format!(
-                "renderer '{name}': {why} (expected jbu:<renderer>@<N|WxH>[,method=bilateral|linear|nearest][,k=1..4][,sigma=F][,r=N])"
+                "renderer '{name}': {why} (expected jbu:<renderer>@<N|WxH>[,method=bilateral|gauss|linear|nearest][,k=1..4][,sigma=F][,c=F][,r=N])"
             ))
         };
         let body = name
@@ -155,6 +156,7 @@ impl Spec {
                 "method" => params.method = Method::parse(v).map_err(|e| bad(e.to_string()))?,
                 "k" => params.k = v.parse().map_err(|_| badv())?,
                 "sigma" => params.sigma_r = v.parse().map_err(|_| badv())?,
+                "c" => params.sigma_c = v.parse().map_err(|_| badv())?,
                 "r" => params.radius = v.parse().map_err(|_| badv())?,
                 other => return Err(bad(format!("unknown option '{other}'"))),
             }

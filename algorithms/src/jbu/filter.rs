@@ -1,0 +1,519 @@
+//! The upsampling filters of [`super::upsample`]: `nearest`, `linear`, `bilateral` (the default:
+//! bilinear weights times a range term against a first-order prediction of the full-size guide)
+//! and `gauss` (the paper's Gaussian-support filter with a plain range term).
+
+use rayon::prelude::*;
+
+use super::{DepthLayers, Method, Params};
+use crate::camera::Camera;
+use crate::error::{Error, Result};
+use crate::image::Image;
+
+/// Position of full-res pixel `i`'s centre in low-res continuous coordinates along one axis.
+#[inline]
+fn to_low(i: usize, full: u32, low: u32, scale: f64) -> f64 {
+    (i as f64 + 0.5 - 0.5 * full as f64) * scale + 0.5 * low as f64
+}
+
+/// The two bilinear samples along one axis (clamped to the outermost sample centres, as a
+/// texture unit's clamp-to-edge), the weight `f` of the second, and the offsets `d0`, `d1` from
+/// the full-res pixel centre to the two sample centres in full-res pixels.
+#[derive(Clone, Copy)]
+struct Axis {
+    a0: u32,
+    a1: u32,
+    f: f32,
+    d0: f32,
+    d1: f32,
+}
+
+fn axis(u: f64, n: u32, omega: f64) -> Axis {
+    let x = (u - 0.5).clamp(0.0, (n - 1) as f64);
+    let a0 = (x.floor() as u32).min(n - 1);
+    let a1 = (a0 + 1).min(n - 1);
+    let d = |a: u32| ((a as f64 + 0.5 - u) * omega) as f32;
+    Axis {
+        a0,
+        a1,
+        f: (x - a0 as f64) as f32,
+        d0: d(a0),
+        d1: d(a1),
+    }
+}
+
+/// minmod of the backward and forward differences: the smaller one-sided slope when both have
+/// the same sign, else 0. Next to a depth edge it takes the slope of the side the pixel is on.
+#[inline]
+fn minmod(a: f32, b: f32) -> f32 {
+    if a * b <= 0.0 {
+        0.0
+    } else if a.abs() < b.abs() {
+        a
+    } else {
+        b
+    }
+}
+
+/// The guide's slope in x and y at pixel (i, j) per layer (normalised depth per full-res
+/// pixel), by [`minmod`]; at the image border the one inner difference.
+#[inline]
+fn slopes<const K: usize>(
+    d: &[f32],
+    i: usize,
+    j: usize,
+    w: usize,
+    h: usize,
+) -> ([f32; K], [f32; K]) {
+    let o = (j * w + i) * K;
+    let (l, r) = (i > 0, i + 1 < w);
+    let (u, n) = (j > 0, j + 1 < h);
+    let gx = std::array::from_fn(|c| {
+        let v = d[o + c];
+        let back = if l { v - d[o - K + c] } else { f32::NAN };
+        let fwd = if r { d[o + K + c] - v } else { f32::NAN };
+        one_or_minmod(back, fwd)
+    });
+    let gy = std::array::from_fn(|c| {
+        let v = d[o + c];
+        let back = if u { v - d[o - w * K + c] } else { f32::NAN };
+        let fwd = if n { d[o + w * K + c] - v } else { f32::NAN };
+        one_or_minmod(back, fwd)
+    });
+    (gx, gy)
+}
+
+#[inline]
+fn one_or_minmod(back: f32, fwd: f32) -> f32 {
+    match (back.is_nan(), fwd.is_nan()) {
+        (true, true) => 0.0,
+        (true, false) => fwd,
+        (false, true) => back,
+        (false, false) => minmod(back, fwd),
+    }
+}
+
+/// Weight mass (of at most 1: the bilinear weights sum to 1) below which no bilinear sample is
+/// taken to lie on the pixel's side of a depth edge, and the wider window decides.
+const W_MIN: f32 = 1e-3;
+
+/// Range weight above which a sample counts as on the pixel's side (no depth edge).
+const G_FLAT: f32 = 0.99;
+
+/// A low-res sample with its depth-layer vector (unused layers 0) and its number of valid
+/// layers (at most k).
+type Sample = ([f32; 4], [f32; 4], usize);
+
+pub(super) fn upsample(
+    low: &Image,
+    low_cam: &Camera,
+    full_cam: &Camera,
+    params: &Params,
+    layers: Option<(&DepthLayers, &DepthLayers)>,
+) -> Result<Image> {
+    let (w, h) = (full_cam.width, full_cam.height);
+    let (lw, lh) = (low.width, low.height);
+    if (lw, lh) != (low_cam.width, low_cam.height) || lw == 0 || lh == 0 {
+        return Err(Error::Internal(format!(
+            "jbu: low image {lw}x{lh} does not match its camera {}x{}",
+            low_cam.width, low_cam.height
+        )));
+    }
+    // Full-res pixel size in low-res pixels (1/Ω).
+    let scale = full_cam.pixel / low_cam.pixel;
+    let omega = 1.0 / scale;
+    let ux: Vec<f64> = (0..w as usize).map(|i| to_low(i, w, lw, scale)).collect();
+    let uy: Vec<f64> = (0..h as usize).map(|j| to_low(j, h, lh, scale)).collect();
+    let mut out = Image::new(w, h);
+    let wu = w as usize;
+    match params.method {
+        Method::Nearest => {
+            let ix: Vec<u32> = ux
+                .iter()
+                .map(|&u| (u.floor().max(0.0) as u32).min(lw - 1))
+                .collect();
+            out.pixels
+                .par_chunks_mut(wu)
+                .enumerate()
+                .for_each(|(j, row)| {
+                    let b = (uy[j].floor().max(0.0) as u32).min(lh - 1);
+                    for (o, &a) in row.iter_mut().zip(&ix) {
+                        *o = low.get(a, b);
+                    }
+                });
+        }
+        Method::Linear => {
+            let cols: Vec<Axis> = ux.iter().map(|&u| axis(u, lw, omega)).collect();
+            out.pixels
+                .par_chunks_mut(wu)
+                .enumerate()
+                .for_each(|(j, row)| {
+                    let ay = axis(uy[j], lh, omega);
+                    for (o, ax) in row.iter_mut().zip(&cols) {
+                        let (p00, p10) = (low.get(ax.a0, ay.a0), low.get(ax.a1, ay.a0));
+                        let (p01, p11) = (low.get(ax.a0, ay.a1), low.get(ax.a1, ay.a1));
+                        *o = std::array::from_fn(|c| {
+                            let top = p00[c] + (p10[c] - p00[c]) * ax.f;
+                            let bot = p01[c] + (p11[c] - p01[c]) * ax.f;
+                            top + (bot - top) * ay.f
+                        });
+                    }
+                });
+        }
+        Method::Bilateral | Method::Gauss => {
+            let (full_l, low_l) = layers.ok_or_else(|| {
+                Error::Internal("jbu: bilateral upsampling without depth layers".into())
+            })?;
+            if (full_l.width, full_l.height) != (w, h)
+                || (low_l.width, low_l.height) != (lw, lh)
+                || full_l.k != low_l.k
+            {
+                return Err(Error::Internal(
+                    "jbu: depth layers of the wrong size".into(),
+                ));
+            }
+            let k = full_l.k;
+            let samples: Vec<Sample> = (0..lh)
+                .flat_map(|b| (0..lw).map(move |a| (a, b)))
+                .map(|(a, b)| {
+                    let d = low_l.at(a, b);
+                    (
+                        low.get(a, b),
+                        std::array::from_fn(|c| if c < k { d[c] } else { 0.0 }),
+                        (low_l.count[(b * lw + a) as usize] as usize).min(k),
+                    )
+                })
+                .collect();
+            let win = Window::new(params, &ux, &uy, lw, lh, omega);
+            let f = Filter {
+                full: full_l,
+                samples: &samples,
+                lw: lw as usize,
+                inv2s2: (1.0 / (2.0 * params.sigma_r * params.sigma_r)) as f32,
+                inv2c2: (1.0 / (2.0 * params.sigma_c * params.sigma_c)) as f32,
+                win: &win,
+            };
+            if params.method == Method::Gauss {
+                out.pixels
+                    .par_chunks_mut(wu)
+                    .enumerate()
+                    .for_each(|(j, row)| {
+                        for (i, o) in row.iter_mut().enumerate() {
+                            let rp = f.guide(i, j);
+                            *o = f.window(i, j, &rp, None);
+                        }
+                    });
+            } else {
+                let cols: Vec<Axis> = ux.iter().map(|&u| axis(u, lw, omega)).collect();
+                match k {
+                    1 => f.edge_aware::<1>(&mut out, &cols, &uy, omega, lh),
+                    2 => f.edge_aware::<2>(&mut out, &cols, &uy, omega, lh),
+                    3 => f.edge_aware::<3>(&mut out, &cols, &uy, omega, lh),
+                    _ => f.edge_aware::<4>(&mut out, &cols, &uy, omega, lh),
+                }
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// The `2r × 2r` window of low-res samples around each full-res pixel, with the spatial
+/// exponents `−d²/(2σ²)`, d in full-res pixels, σ = Ω/2 (eq. 4): in low-res pixels `−2·d_low²`.
+struct Window {
+    n: usize,
+    /// Per column: first sample index (may be negative) and the n exponents (−inf off the image).
+    cols: Vec<(i64, Vec<f32>)>,
+    rows: Vec<(i64, Vec<f32>)>,
+    /// Offsets from pixel to sample in full-res pixels, per column / row.
+    dcols: Vec<Vec<f32>>,
+    drows: Vec<Vec<f32>>,
+}
+
+impl Window {
+    fn new(params: &Params, ux: &[f64], uy: &[f64], lw: u32, lh: u32, omega: f64) -> Window {
+        let r = params.radius as i64;
+        let one = |u: f64, n: u32| -> ((i64, Vec<f32>), Vec<f32>) {
+            let a0 = (u - 0.5).floor() as i64 - r + 1;
+            let e = (0..2 * r)
+                .map(|m| {
+                    let a = a0 + m;
+                    if a < 0 || a >= n as i64 {
+                        f32::NEG_INFINITY
+                    } else {
+                        let d = a as f64 + 0.5 - u;
+                        (-2.0 * d * d) as f32
+                    }
+                })
+                .collect();
+            let d = (0..2 * r)
+                .map(|m| ((a0 + m) as f64 + 0.5 - u) as f32 * omega as f32)
+                .collect();
+            ((a0, e), d)
+        };
+        let (cols, dcols) = ux.iter().map(|&u| one(u, lw)).unzip();
+        let (rows, drows) = uy.iter().map(|&u| one(u, lh)).unzip();
+        Window {
+            n: 2 * r as usize,
+            cols,
+            rows,
+            dcols,
+            drows,
+        }
+    }
+}
+
+struct Filter<'a> {
+    full: &'a DepthLayers,
+    samples: &'a [Sample],
+    lw: usize,
+    inv2s2: f32,
+    inv2c2: f32,
+    win: &'a Window,
+}
+
+impl Filter<'_> {
+    #[inline]
+    fn guide(&self, i: usize, j: usize) -> [f32; 4] {
+        let d = self.full.at(i as u32, j as u32);
+        std::array::from_fn(|c| if c < self.full.k { d[c] } else { 0.0 })
+    }
+
+    /// The Gaussian window filter at pixel (i, j), its weights normalised in the log domain (the
+    /// largest exponent is subtracted), so that a pixel whose samples all differ in depth by many
+    /// σ_r takes the best-matching ones. With `grad` the range term compares each sample with
+    /// the guide extrapolated to it along the pixel's slopes.
+    fn window(
+        &self,
+        i: usize,
+        j: usize,
+        rp: &[f32; 4],
+        grad: Option<([f32; 4], [f32; 4])>,
+    ) -> [f32; 4] {
+        let w = self.win;
+        let n = w.n;
+        let (a0, ex) = &w.cols[i];
+        let (b0, ey) = &w.rows[j];
+        let mut xs = [0.0f32; 256];
+        let mut idx = [usize::MAX; 256];
+        let mut xmin = f32::INFINITY;
+        for (y, &eyv) in ey.iter().enumerate().take(n) {
+            if eyv == f32::NEG_INFINITY {
+                continue;
+            }
+            for (x, &exv) in ex.iter().enumerate().take(n) {
+                if exv == f32::NEG_INFINITY {
+                    continue;
+                }
+                let m = y * n + x;
+                let q = (*b0 + y as i64) as usize * self.lw + (*a0 + x as i64) as usize;
+                let rq = &self.samples[q].1;
+                let mut d2 = 0.0;
+                for c in 0..4 {
+                    let pred = match &grad {
+                        Some((gx, gy)) => rp[c] + gx[c] * w.dcols[i][x] + gy[c] * w.drows[j][y],
+                        None => rp[c],
+                    };
+                    d2 += (pred - rq[c]) * (pred - rq[c]);
+                }
+                let xr = d2 * self.inv2s2 - exv - eyv;
+                xs[m] = xr;
+                idx[m] = q;
+                xmin = xmin.min(xr);
+            }
+        }
+        let mut acc = [0.0f32; 4];
+        let mut wsum = 0.0f32;
+        for m in 0..n * n {
+            if idx[m] == usize::MAX {
+                continue;
+            }
+            let wgt = exp_neg(xs[m] - xmin);
+            if wgt == 0.0 {
+                continue;
+            }
+            let p = &self.samples[idx[m]].0;
+            for c in 0..4 {
+                acc[c] += wgt * p[c];
+            }
+            wsum += wgt;
+        }
+        if wsum > 0.0 {
+            acc.map(|v| v / wsum)
+        } else {
+            [0.0; 4]
+        }
+    }
+
+    /// The default filter: eq. (3) with the bilinear tent as spatial kernel f (the support of
+    /// the linear interpolation it replaces) and the range kernel g of eq. (4) on the distance
+    /// between each sample's layer vector and the full-size guide at the pixel extrapolated to
+    /// the sample along its [`minmod`] slopes. Where the guide is planar across the 2×2 samples,
+    /// g = 1 and the result is exactly bilinear; across a depth edge g ≈ 0 and the samples
+    /// beyond it drop out. When less than [`W_MIN`] of the weight is left (every bilinear sample
+    /// is across an edge), the 2r×2r Gaussian window with the same extrapolated range term
+    /// decides.
+    fn edge_aware<const K: usize>(
+        &self,
+        out: &mut Image,
+        cols: &[Axis],
+        uy: &[f64],
+        omega: f64,
+        lh: u32,
+    ) {
+        let (w, h) = (self.full.width as usize, self.full.height as usize);
+        let (lw, samples, inv2s2, inv2c2) = (self.lw, self.samples, self.inv2s2, self.inv2c2);
+        let depth = &self.full.depth;
+        let count = &self.full.count;
+        out.pixels
+            .par_chunks_mut(w)
+            .enumerate()
+            .for_each(|(j, row)| {
+                let ay = axis(uy[j], lh, omega);
+                let rb = [ay.a0 as usize * lw, ay.a1 as usize * lw];
+                let ty = [1.0 - ay.f, ay.f];
+                let dy = [ay.d0, ay.d1];
+                for (i, (o, ax)) in row.iter_mut().zip(cols).enumerate() {
+                    let base = (j * w + i) * K;
+                    let rp: [f32; K] = std::array::from_fn(|c| depth[base + c]);
+                    let np = (count[j * w + i] as usize).min(K);
+                    let (px, py) = slopes::<K>(depth, i, j, w, h);
+                    let ca = [ax.a0 as usize, ax.a1 as usize];
+                    let tx = [1.0 - ax.f, ax.f];
+                    let dx = [ax.d0, ax.d1];
+                    let mut acc = [0.0f32; 4];
+                    let mut wsum = 0.0f32;
+                    let mut gd = [[0.0f32; 2]; 2];
+                    let mut edge = false;
+                    for y in 0..2 {
+                        for x in 0..2 {
+                            let s = &samples[rb[y] + ca[x]];
+                            let pred: [f32; K] =
+                                std::array::from_fn(|c| rp[c] + px[c] * dx[x] + py[c] * dy[y]);
+                            let d2 = range_d2::<K>(&pred, &rp, np, &s.1, s.2);
+                            let g = exp_neg(d2 * inv2s2);
+                            edge |= g < G_FLAT;
+                            gd[y][x] = g;
+                            let wgt = tx[x] * ty[y] * g;
+                            for (a, v) in acc.iter_mut().zip(&s.0) {
+                                *a += wgt * v;
+                            }
+                            wsum += wgt;
+                        }
+                    }
+                    let same = if wsum >= W_MIN {
+                        acc.map(|v| v / wsum)
+                    } else {
+                        let pad =
+                            |a: [f32; K]| std::array::from_fn(|c| if c < K { a[c] } else { 0.0 });
+                        self.window(i, j, &pad(rp), Some((pad(px), pad(py))))
+                    };
+                    if !edge {
+                        *o = same;
+                        continue;
+                    }
+                    // Colour consistency: a sample across a depth edge whose colour continues
+                    // the pixel's side (a silhouette that fades out) is kept as bilinear keeps it.
+                    let mut acc = [0.0f32; 4];
+                    let mut wsum = 0.0f32;
+                    for y in 0..2 {
+                        for x in 0..2 {
+                            let s = &samples[rb[y] + ca[x]];
+                            let mut c2 = 0.0f32;
+                            for (v, m) in s.0.iter().zip(&same) {
+                                c2 += (v - m) * (v - m);
+                            }
+                            let g = gd[y][x].max(exp_neg(c2 * inv2c2));
+                            let wgt = tx[x] * ty[y] * g;
+                            for (a, v) in acc.iter_mut().zip(&s.0) {
+                                *a += wgt * v;
+                            }
+                            wsum += wgt;
+                        }
+                    }
+                    *o = if wsum >= W_MIN {
+                        acc.map(|v| v / wsum)
+                    } else {
+                        same
+                    };
+                }
+            });
+    }
+}
+
+/// Squared range distance between the pixel's layers extrapolated to a sample (`pred`; `rp`
+/// unextrapolated, `np` valid) and the sample's layers (`rq`, `nq` valid). With equal counts it
+/// is the squared Euclidean distance of eq. (4). When one side has two or four crossings more,
+/// the extra crossings are matched as pairs that the other side lacks, each costing its own
+/// separation: a pair of boundary crossings is born with zero separation where a ray grazes the
+/// boundary (an oblique silhouette, the rim of a cavity), and there the image is continuous, so
+/// a sample just outside such a rim still counts. Other count differences (layers cut off at k)
+/// compare the padded vectors (missing layers 1.0).
+#[inline]
+fn range_d2<const K: usize>(
+    pred: &[f32; K],
+    rp: &[f32; K],
+    np: usize,
+    rq: &[f32; 4],
+    nq: usize,
+) -> f32 {
+    let plain = || {
+        let mut d2 = 0.0;
+        for c in 0..K {
+            let e = pred[c] - rq[c];
+            d2 += e * e;
+        }
+        d2
+    };
+    if np == nq {
+        return plain();
+    }
+    // `long` has the extra pair(s); `lp` its unextrapolated values for the pair cost.
+    let (long, lp, nl, short, ns): (&[f32], &[f32], usize, &[f32], usize) = if np > nq {
+        (pred, rp, np, rq, nq)
+    } else {
+        (rq, rq, nq, pred, np)
+    };
+    match nl - ns {
+        2 => {
+            let mut best = f32::INFINITY;
+            for i in 0..nl - 1 {
+                let sep = lp[i + 1] - lp[i];
+                let mut d2 = sep * sep;
+                for c in 0..ns {
+                    let l = if c < i { long[c] } else { long[c + 2] };
+                    let e = l - short[c];
+                    d2 += e * e;
+                }
+                best = best.min(d2);
+            }
+            best
+        }
+        4 => {
+            let (a, b) = (lp[1] - lp[0], lp[3] - lp[2]);
+            a * a + b * b
+        }
+        _ => plain(),
+    }
+}
+
+/// Steps per unit of the [`exp_neg`] table, and where it ends (e^−24 ≈ 4e-11).
+const EXP_STEPS: f32 = 64.0;
+const EXP_END: f32 = 24.0;
+
+/// e^−x for x ≥ 0 from a table with linear interpolation (relative error < 1e-4), 0 beyond
+/// [`EXP_END`] and for NaN/inf. The filter spends most of its time here.
+#[inline]
+fn exp_neg(x: f32) -> f32 {
+    static TABLE: std::sync::OnceLock<Vec<f32>> = std::sync::OnceLock::new();
+    let t = TABLE.get_or_init(|| {
+        (0..=(EXP_END * EXP_STEPS) as usize + 1)
+            .map(|i| (-(i as f64) / EXP_STEPS as f64).exp() as f32)
+            .collect()
+    });
+    if x.is_nan() || x >= EXP_END {
+        return 0.0;
+    }
+    let f = x.max(0.0) * EXP_STEPS;
+    let i = f as usize;
+    let a = t[i];
+    a + (t[i + 1] - a) * (f - i as f32)
+}

@@ -65,6 +65,12 @@ pub trait Renderer: Send {
     fn device(&self) -> String {
         "cpu".to_string()
     }
+    /// For a renderer that runs in a helper process (family "external"): the bytes that
+    /// process holds, its peak resident set. The harness reports these as the renderer's CPU
+    /// bytes instead of the heap bytes it counted in this process.
+    fn external_bytes(&self) -> Option<u64> {
+        None
+    }
 }
 
 /// A registry entry.
@@ -96,6 +102,7 @@ registry! {
     cpu_pt_slab16 => [CPU_PT_SLAB16],
     ptint => [PTINT],
     hapt => [HAPT],
+    vtk => [VTK_PT, VTK_RAYCAST, VTK_ZSWEEP],
     // The last entry, `jbu:<renderer>@<size>`, describes the wrapper pattern (see `is_wrapper`).
     jbu => [JBU],
 }

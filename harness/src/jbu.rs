@@ -65,7 +65,7 @@ impl Plan {
         let renderers = render::REGISTRY
             .iter()
             .map(|r| r.name)
-            .filter(|n| *n != "reference" && !render::is_wrapper(n))
+            .filter(|n| *n != "reference" && !render::is_wrapper(n) && !render::is_external(n))
             .map(String::from)
             .collect();
         let (datasets, full, lows): (&[&str], u32, Vec<u32>) = if quick {

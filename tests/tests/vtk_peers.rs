@@ -13,6 +13,9 @@ use algorithms::{Mesh, TransferFunction};
 
 const SIZE: u32 = 128;
 
+/// (renderer, `--param`s, RMSE bound).
+type Peer = (&'static str, &'static [(&'static str, &'static str)], f64);
+
 /// Whether to run; `false` prints why. Fails when VTK is required but not there.
 fn vtk_enabled(test: &str) -> bool {
     if std::env::var_os("TETBENCH_VTK_PYTHON").is_some_and(|v| !v.is_empty()) {
@@ -116,7 +119,7 @@ fn vtk_peers_match_the_reference_and_our_camera() {
     let mesh = spx();
     let tf = TransferFunction::preset("default").unwrap();
     // (renderer, params, RMSE bound): measured at 128² on spx:6000, bounds ~1.5x (docs/vtk.md).
-    let peers: [(&str, &[(&str, &str)], f64); 4] = [
+    let peers: [Peer; 4] = [
         ("vtk-pt", &[], 0.02),
         ("vtk-raycast", &[], 0.008),
         ("vtk-raycast", &[("grid", "aligned")], 0.008),

@@ -112,6 +112,12 @@ pub fn is_wrapper(name: &str) -> bool {
     name.starts_with(jbu::PREFIX)
 }
 
+/// Whether `name` runs in a helper process outside tetbench (family "external": the VTK peers,
+/// which need `TETBENCH_VTK_PYTHON`). Sweeps over "every renderer" leave these out unless named.
+pub fn is_external(name: &str) -> bool {
+    vtk::NAMES.contains(&name)
+}
+
 /// Looks a renderer up by name. A `jbu:<renderer>@<size>` name is checked and answers with the
 /// inner renderer's entry (the wrapper takes exactly its sorts and integrators).
 pub fn info(name: &str) -> Result<&'static RendererInfo> {

@@ -50,6 +50,9 @@ pub const HOW_TO_ENABLE: &str = "set TETBENCH_VTK_PYTHON to a Python with vtk an
     `python3 -m venv ~/vtk-venv && ~/vtk-venv/bin/pip install \"vtk==9.*\" numpy` and \
     `export TETBENCH_VTK_PYTHON=~/vtk-venv/bin/python`";
 
+/// The peers' names (family "external").
+pub const NAMES: [&str; 3] = ["vtk-pt", "vtk-raycast", "vtk-zsweep"];
+
 const PEER_SOURCE: &str = include_str!("vtk_peer.py");
 
 /// Registry entry for `vtk-pt`.

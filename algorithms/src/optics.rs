@@ -579,9 +579,36 @@ impl Integrator for Exact {
         if !valid_input(sf, sb, l) {
             return Segment::default();
         }
-        let mut pieces = Vec::with_capacity(4);
-        split_pieces(&self.tf, sf, sb, &mut pieces);
-        integrate_pieces(&pieces, l)
+        // `split_pieces` + `integrate_pieces`, streamed: the same pieces composited in the same
+        // order, without the two heap allocations per segment (the ray caster calls this once
+        // per cell step).
+        let tf = &self.tf;
+        let span = sb - sf;
+        let (lo, hi) = if sf <= sb { (sf, sb) } else { (sb, sf) };
+        let mut acc = Segment::default();
+        let (mut s0, (mut c0, mut t0)) = (sf, tf.eval(sf));
+        let mut piece = |s1: f64| -> bool {
+            let (c1, t1) = tf.eval(s1);
+            let frac = if span != 0.0 { (s1 - s0) / span } else { 1.0 };
+            if frac > 0.0 {
+                composite_under(&mut acc, piece_segment(c0, t0, c1, t1, frac * l));
+                if acc.alpha >= 1.0 {
+                    return false;
+                }
+            }
+            (s0, c0, t0) = (s1, c1, t1);
+            true
+        };
+        let inner = |p: &&crate::tf::TfPoint| p.s > lo && p.s < hi;
+        let more = if sf <= sb {
+            tf.points.iter().filter(inner).all(|p| piece(p.s))
+        } else {
+            tf.points.iter().rev().filter(inner).all(|p| piece(p.s))
+        };
+        if more {
+            piece(sb);
+        }
+        acc
     }
 }
 

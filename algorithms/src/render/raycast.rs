@@ -20,7 +20,7 @@ use std::time::Instant;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::{ms_since, Frame, FrameTimes, RenderOptions, Renderer, RendererInfo};
+use super::{ms_since, Family, Frame, FrameTimes, RenderOptions, Renderer, RendererInfo};
 use crate::camera::{Camera, Ray};
 use crate::error::{Error, Result};
 use crate::image::Image;
@@ -34,6 +34,12 @@ pub static RAYCAST: RendererInfo = RendererInfo {
     description: "CPU ray caster walking cell to cell through face adjacency (rayon over rows)",
     sorts: &[],
     integrators: &INTEGRATORS,
+    family: Family::RayCasting,
+    needs_gpu: false,
+    default_sort: "",
+    table_sorts: &[],
+    default_integrator: "partial",
+    params: &[],
     make: |o| {
         Ok(Box::new(RayCaster::new(
             o.integrator.as_deref().unwrap_or("partial"),
@@ -48,6 +54,12 @@ pub static REFERENCE: RendererInfo = RendererInfo {
     description: "the exact reference: raycast with the exact integrator, f64 throughout",
     sorts: &[],
     integrators: &["exact"],
+    family: Family::RayCasting,
+    needs_gpu: false,
+    default_sort: "",
+    table_sorts: &[],
+    default_integrator: "exact",
+    params: &[],
     make: |_: &RenderOptions| Ok(Box::new(RayCaster::new("exact", "reference"))),
 };
 

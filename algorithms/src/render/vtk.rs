@@ -35,11 +35,12 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use glam::DVec3;
 use serde_json::{json, Value};
 
-use super::{Frame, FrameTimes, RenderOptions, Renderer, RendererInfo};
+use super::{Family, Frame, FrameTimes, RenderOptions, Renderer, RendererInfo};
 use crate::camera::{Camera, Projection};
 use crate::error::{Error, Result};
 use crate::image::Image;
 use crate::mesh::Mesh;
+use crate::plugin::ParamInfo;
 use crate::tf::TransferFunction;
 
 /// The environment variable naming a Python with `vtk` and `numpy`.
@@ -50,9 +51,6 @@ pub const HOW_TO_ENABLE: &str = "set TETBENCH_VTK_PYTHON to a Python with vtk an
     `python3 -m venv ~/vtk-venv && ~/vtk-venv/bin/pip install \"vtk==9.*\" numpy` and \
     `export TETBENCH_VTK_PYTHON=~/vtk-venv/bin/python`";
 
-/// The peers' names (family "external").
-pub const NAMES: [&str; 3] = ["vtk-pt", "vtk-raycast", "vtk-zsweep"];
-
 const PEER_SOURCE: &str = include_str!("vtk_peer.py");
 
 /// Registry entry for `vtk-pt`.
@@ -62,27 +60,51 @@ pub static VTK_PT: RendererInfo = RendererInfo {
                   Shirley-Tuchman averaging, per-vertex colour and opacity in bytes",
     sorts: &[],
     integrators: &["average"],
+    family: Family::External,
+    needs_gpu: false,
+    default_sort: "",
+    table_sorts: &[],
+    default_integrator: "average",
+    params: &[],
     make: |o| VtkPeer::make(Mapper::Pt, o),
 };
+
+/// The ray grid parameter of `vtk-raycast` and `vtk-zsweep`.
+const GRID_PARAM: &[ParamInfo] = &[ParamInfo {
+    name: "grid",
+    default: "vtk",
+    doc: "vtk (ImageSampleDistance 1, VTK's usual setting; its ray image resampled at our pixel \
+          centres) or aligned (2W+1 rays a row: one ray exactly through each pixel centre, 4x the rays)",
+}];
 
 /// Registry entry for `vtk-raycast`.
 pub static VTK_RAYCAST: RendererInfo = RendererInfo {
     name: "vtk-raycast",
     description: "VTK's Bunyk ray caster, vtkUnstructuredGridVolumeRayCastMapper (external, \
-                  TETBENCH_VTK_PYTHON); params grid=vtk|aligned (vtk: ImageSampleDistance 1; \
-                  aligned: one ray through each pixel centre, 4x the rays)",
+                  TETBENCH_VTK_PYTHON)",
     sorts: &[],
     integrators: &["preint", "partial"],
+    family: Family::External,
+    needs_gpu: false,
+    default_sort: "",
+    table_sorts: &[],
+    default_integrator: "preint",
+    params: GRID_PARAM,
     make: |o| VtkPeer::make(Mapper::Raycast, o),
 };
 
 /// Registry entry for `vtk-zsweep`.
 pub static VTK_ZSWEEP: RendererInfo = RendererInfo {
     name: "vtk-zsweep",
-    description: "VTK's vtkUnstructuredGridVolumeZSweepMapper (external, TETBENCH_VTK_PYTHON); \
-                  params grid=vtk|aligned as vtk-raycast",
+    description: "VTK's vtkUnstructuredGridVolumeZSweepMapper (external, TETBENCH_VTK_PYTHON)",
     sorts: &[],
     integrators: &["preint", "partial"],
+    family: Family::External,
+    needs_gpu: false,
+    default_sort: "",
+    table_sorts: &[],
+    default_integrator: "preint",
+    params: GRID_PARAM,
     make: |o| VtkPeer::make(Mapper::Zsweep, o),
 };
 

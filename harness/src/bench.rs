@@ -364,6 +364,11 @@ pub fn measure_cell(
     row.fps = 1e3 / t.total_ms.max(1e-9);
     row.tets_per_s = row.tets as f64 / (t.total_ms.max(1e-9) * 1e-3);
     row.non_finite_pixels = m.image.non_finite_pixels();
+    // An external renderer's bytes are its helper process's peak RSS, known after the frames.
+    if let Some(b) = p.renderer.external_bytes() {
+        row.cpu_bytes_per_tet = b as f64 / row.tets.max(1) as f64;
+        row.cpu_peak_bytes_per_tet = row.cpu_bytes_per_tet;
+    }
     if let Some(rp) = reference {
         match metrics::compare(&m.image, &Image::read(rp)?) {
             Ok(e) => {

@@ -255,7 +255,10 @@ fn render_cmd(args: &RenderArgs) -> Result<()> {
         ("tets_per_s", num(tets / (t.total_ms.max(1e-9) * 1e-3))),
         (
             "cpu_bytes_per_tet",
-            if alloc::is_counting() {
+            // An external renderer (VTK): its helper process's peak RSS.
+            if let Some(b) = renderer.external_bytes() {
+                num(b as f64 / tets)
+            } else if alloc::is_counting() {
                 num(bytes as f64 / tets)
             } else {
                 json!("not measured")
@@ -282,6 +285,18 @@ fn list() {
             r.family.name(),
             if r.needs_gpu { ", GPU" } else { "" }
         );
+        // External renderers (the VTK peers) say whether they can run and how to enable them.
+        if r.family == render::Family::External {
+            match render::vtk::python() {
+                Ok(p) => println!(
+                    "  {:<12}   enabled: {}={}",
+                    "",
+                    render::vtk::PYTHON_VAR,
+                    p.display()
+                ),
+                Err(e) => println!("  {:<12}   {e}", ""),
+            }
+        }
         if !r.sorts.is_empty() {
             println!(
                 "  {:<12}   sorts: {} (default {})",

@@ -66,6 +66,12 @@ pub trait Renderer: Send {
     fn device(&self) -> String {
         "cpu".to_string()
     }
+    /// For a renderer that runs in a helper process (family "external"): the bytes that
+    /// process holds, its peak resident set. The harness reports these as the renderer's CPU
+    /// bytes instead of the heap bytes it counted in this process.
+    fn external_bytes(&self) -> Option<u64> {
+        None
+    }
 }
 
 /// What kind of algorithm a renderer is; the papers' tables pick their renderers by family.
@@ -135,6 +141,7 @@ registry! {
     cpu_pt_slab16 => [CPU_PT_SLAB16],
     ptint => [PTINT],
     hapt => [HAPT],
+    vtk => [VTK_PT, VTK_RAYCAST, VTK_ZSWEEP],
     // The last entry, `jbu:<renderer>@<size>`, describes the wrapper pattern (see `is_wrapper`).
     jbu => [JBU],
 }
@@ -142,6 +149,12 @@ registry! {
 /// Whether `name` is a wrapper (`jbu:...`), not a renderer of its own.
 pub fn is_wrapper(name: &str) -> bool {
     name.starts_with(jbu::PREFIX)
+}
+
+/// Whether `name` runs in a helper process outside tetbench (family "external": the VTK peers,
+/// which need `TETBENCH_VTK_PYTHON`). Sweeps over "every renderer" leave these out unless named.
+pub fn is_external(name: &str) -> bool {
+    info(name).is_ok_and(|i| i.family == Family::External)
 }
 
 /// Looks a renderer up by name. A `jbu:<renderer>@<size>` name is checked and answers with the

@@ -96,6 +96,48 @@ pub(crate) fn ray_casters(preint_too: bool) -> Vec<RendererSpec> {
         .collect()
 }
 
+/// Meshes above this many tets get no row from an external renderer in the speed tables: VTK's
+/// mappers on llvmpipe take seconds (ZSweep tens of seconds) a 512² frame at 200K tets.
+pub(crate) const EXTERNAL_MAX_TETS: usize = 600_000;
+
+/// The external peers (every renderer the registry files under [`Family::External`]: VTK's
+/// mappers) with their default integrators, for the speed tables — only those that can run
+/// here (the VTK ones need `TETBENCH_VTK_PYTHON`), so a run without them is unchanged.
+pub(crate) fn external_peers() -> Vec<RendererSpec> {
+    render::family(Family::External)
+        .into_iter()
+        .filter(|i| render::make(i.name, &Default::default()).is_ok())
+        .filter_map(|i| want(i.name, &[], &[i.default_integrator]))
+        .map(|mut r| {
+            r.max_tets = Some(EXTERNAL_MAX_TETS);
+            r
+        })
+        .collect()
+}
+
+/// A table note naming the external peers in the run, or saying how to add them.
+pub(crate) fn external_note() -> String {
+    let all: Vec<&str> = render::family(Family::External)
+        .iter()
+        .map(|i| i.name)
+        .collect();
+    let run: Vec<String> = external_peers().into_iter().map(|r| r.name).collect();
+    if run.is_empty() {
+        format!(
+            "External peers ({}) not in this run: {}.",
+            all.join(", "),
+            render::vtk::HOW_TO_ENABLE
+        )
+    } else {
+        format!(
+            "External peers: {} (VTK's mappers, default integrators, meshes up to {} tets; \
+             docs/vtk.md), measured like ours: time inside the helper, bytes = its peak RSS.",
+            run.join(", "),
+            EXTERNAL_MAX_TETS
+        )
+    }
+}
+
 // ---------------------------------------------------------------------------------------------
 // Datasets: the NASA grids when present, else their analogues; smaller meshes with --quick.
 
@@ -415,5 +457,30 @@ mod tests {
         assert!(pt.iter().any(|n| n == "cpu-pt-slab16"));
         let rc: Vec<String> = ray_casters(true).into_iter().map(|r| r.name).collect();
         assert_eq!(rc, ["raycast"]);
+    }
+
+    /// The external peers reach the speed tables through their family: all of them when they
+    /// can run here (TETBENCH_VTK_PYTHON set), none otherwise; capped and named in the note.
+    #[test]
+    fn external_peers_come_from_the_registry_when_they_can_run() {
+        let ext: Vec<&str> = render::family(Family::External)
+            .iter()
+            .map(|i| i.name)
+            .collect();
+        assert_eq!(ext, ["vtk-pt", "vtk-raycast", "vtk-zsweep"]);
+        let peers = external_peers();
+        let enabled = render::vtk::python().is_ok();
+        let names: Vec<&str> = peers.iter().map(|r| r.name.as_str()).collect();
+        assert_eq!(names, if enabled { ext.clone() } else { vec![] });
+        assert!(peers.iter().all(|r| r.max_tets == Some(EXTERNAL_MAX_TETS)));
+        let note = external_note();
+        assert!(
+            note.contains(if enabled {
+                "vtk-raycast"
+            } else {
+                "TETBENCH_VTK_PYTHON"
+            }),
+            "{note}"
+        );
     }
 }

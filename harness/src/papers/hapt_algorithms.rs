@@ -5,8 +5,8 @@
 use algorithms::Result;
 
 use super::common::{
-    agg, algo_rows, base_config, common_notes, dataset, mesh_used, pt_family, ray_casters,
-    rotating, rows_of, variants, PaperRow,
+    agg, algo_rows, base_config, common_notes, dataset, external_note, external_peers, mesh_used,
+    pt_family, ray_casters, rotating, rows_of, variants, PaperRow,
 };
 use super::{Ctx, Done, PaperTable};
 use crate::bench::Outcome;
@@ -105,6 +105,7 @@ const HAPT_T3: &[PaperRow] = &[
 fn algo_renderers() -> Vec<RendererSpec> {
     let mut r = pt_family(true);
     r.extend(ray_casters(true));
+    r.extend(external_peers());
     r
 }
 
@@ -151,6 +152,7 @@ fn hapt_t3_build(ctx: &Ctx, cfg: &Config, o: &Outcome) -> Table {
     };
     t.rows = algo_rows(HAPT_T3, 4, &variants(o), &m, 8);
     t.notes = common_notes(ctx, cfg);
+    t.notes.push(external_note());
     t.notes.push(format!("Mesh used: {}. Sort and draw are the renderers' own stage times (a ray caster has no sort stage: 0).", mesh_used(cfg, "spx2")));
     t
 }
@@ -261,6 +263,7 @@ fn hapt_t4_build(ctx: &Ctx, cfg: &Config, o: &Outcome) -> Table {
     };
     t.rows = algo_rows(HAPT_T4, 4, &variants(o), &m, 8);
     t.notes = common_notes(ctx, cfg);
+    t.notes.push(external_note());
     t.notes.push(format!(
         "Meshes used: torso {}, fighter {}.",
         mesh_used(cfg, "torso"),

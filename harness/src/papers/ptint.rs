@@ -4,8 +4,8 @@
 use algorithms::Result;
 
 use super::common::{
-    agg, algo_rows, base_config, common_notes, dataset, mesh_used, pt_family, ray_casters,
-    rotating, rows_of, run_experiment, variants, PaperRow,
+    agg, algo_rows, base_config, common_notes, dataset, external_note, external_peers, mesh_used,
+    pt_family, ray_casters, rotating, rows_of, run_experiment, variants, PaperRow,
 };
 use super::{Ctx, Done, PaperTable};
 use crate::bench::Outcome;
@@ -128,6 +128,7 @@ fn ptint_t1_exp(ctx: &Ctx) -> std::result::Result<Config, String> {
         .collect();
     c.renderers = pt_family(false);
     c.renderers.extend(ray_casters(false));
+    c.renderers.extend(external_peers());
     c.views = rotating(ctx, 3, 3);
     Ok(c)
 }
@@ -180,6 +181,7 @@ fn ptint_t1_build(ctx: &Ctx, cfg: &Config, o: &Outcome) -> Table {
         }
     }
     t.notes = common_notes(ctx, cfg);
+    t.notes.push(external_note());
     t.notes.push("Paper: PTINT on a Pentium IV 3.6 GHz with a GeForce 6800 (GPU); 512² viewport, rotating model; its 20 bytes/tet is GPU memory.".into());
     t
 }
@@ -220,6 +222,7 @@ fn ptint_t2_exp(ctx: &Ctx) -> std::result::Result<Config, String> {
     ];
     c.renderers = pt_family(false);
     c.renderers.extend(ray_casters(true));
+    c.renderers.extend(external_peers());
     c.views = rotating(ctx, 3, 3);
     Ok(c)
 }
@@ -258,6 +261,7 @@ fn ptint_t2_build(ctx: &Ctx, cfg: &Config, o: &Outcome) -> Table {
     };
     t.rows = algo_rows(PTINT_T2, 2, &variants(o), &m, 8);
     t.notes = common_notes(ctx, cfg);
+    t.notes.push(external_note());
     t.notes.push("Stand-ins: the CPU ray caster `raycast` for HARC (with `preint`) and HARC PPI (with `partial`); `cpu-pt`/`ptint` for PTINT. The paper's bytes/tet: PTINT 20, HARC PPI 96, HARC 144 (GPU).".into());
     t.notes.push(format!(
         "Blunt mesh used: {}; post mesh used: {}.",

@@ -55,8 +55,8 @@ pub const PRESETS: [&str; 3] = ["default", "cool-warm", "xray"];
 
 impl TransferFunction {
     /// Most control points a transfer function may have: 8 per cell of `preint`'s 128-node
-    /// table ([`crate::optics::PreintTable`]), a quarter of the 4096 samples of the other
-    /// tables ([`crate::optics_f32::TF_SAMPLES`]); finer detail is lost to all but `exact`. The
+    /// table (`optics::PreintTable`), a quarter of the 4096 samples of the other
+    /// tables (`optics_f32::TF_SAMPLES`); finer detail is lost to all but `exact`. The
     /// bound keeps `preint`'s table build (O(table nodes · points)) within seconds; 10⁵–10⁶
     /// points took minutes to hours.
     pub const MAX_POINTS: usize = 1024;

@@ -55,6 +55,21 @@ pub fn run(cli: Cli) -> Result<()> {
             reference,
             json,
         } => {
+            let ext = |p: &std::path::Path| {
+                p.extension()
+                    .map(|e| e.to_string_lossy().to_ascii_lowercase())
+                    .unwrap_or_default()
+            };
+            if ext(&test) != ext(&reference) {
+                eprintln!(
+                    "tetbench: warning: comparing {} with {}: a PNG holds 8-bit values \
+                     (floor(255 v + 0.5), no gamma) and an EXR the renderer's f32 values \
+                     (docs/contract.md), so the error includes the PNG's quantisation; \
+                     compare EXR with EXR for the renderer's own error",
+                    test.display(),
+                    reference.display()
+                );
+            }
             let a = Image::read(&test)?;
             let b = Image::read(&reference)?;
             let e = metrics::compare(&a, &b).map_err(|e| {

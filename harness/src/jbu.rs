@@ -60,7 +60,7 @@ impl Plan {
             )
         };
         Plan {
-            datasets: datasets.iter().map(|s| s.to_string()).collect(),
+            datasets: datasets.iter().map(|s| present_or_analogue(s)).collect(),
             renderers,
             full,
             lows,
@@ -68,6 +68,18 @@ impl Plan {
             tf: "default".into(),
             repeats: 1,
         }
+    }
+}
+
+/// A NASA grid's name when its file is found, else its `datasets-gen` analogue (`blunt-like`),
+/// saying so on stderr: the experiment runs without downloaded data.
+fn present_or_analogue(name: &str) -> String {
+    match algorithms::io::resolve_short_name(name) {
+        Some(Err(_)) => {
+            eprintln!("jbu: {name}: NASA grid not found, using its analogue {name}-like");
+            format!("{name}-like")
+        }
+        _ => name.to_string(),
     }
 }
 

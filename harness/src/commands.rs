@@ -92,6 +92,13 @@ pub fn run(cli: Cli) -> Result<()> {
             no_plots,
         } => bench_cmd(&config, &out, !no_plots),
         Command::Reproduce { quick, out, only } => crate::reproduce::run(quick, &out, &only),
+        Command::Plot { dir } if dir.join("raw").is_dir() => {
+            // A `reproduce` directory: every table's plots from its raw rows.
+            for p in crate::papers::replot_all(&dir)? {
+                println!("plot: {}", p.display());
+            }
+            Ok(())
+        }
         Command::Plot { dir } => {
             let rows = rows::read_rows(&dir.join("results.csv"))?;
             let pairs = rows::read_pairs(&dir.join("pairs.csv"))?;

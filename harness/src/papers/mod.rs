@@ -110,19 +110,21 @@ pub fn ids() -> Vec<&'static str> {
     TABLES.iter().map(|t| t.id()).collect()
 }
 
-/// Redraws the plots of every table that has raw rows under `dir/raw/<id>/`.
+/// Redraws the plots of every table from what an earlier run wrote into `dir` (the raw rows
+/// under `dir/raw/<id>/`, or the table itself).
 pub fn replot_all(dir: &Path) -> Result<Vec<PathBuf>> {
     let mut out = Vec::new();
     for t in TABLES {
         let raw = dir.join("raw").join(t.id());
         let csv = raw.join("results.csv");
-        if !csv.exists() {
-            continue;
-        }
-        let o = Outcome {
-            rows: crate::rows::read_rows(&csv)?,
-            pairs: crate::rows::read_pairs(&raw.join("pairs.csv"))?,
-            ..Default::default()
+        let o = if csv.exists() {
+            Outcome {
+                rows: crate::rows::read_rows(&csv)?,
+                pairs: crate::rows::read_pairs(&raw.join("pairs.csv"))?,
+                ..Default::default()
+            }
+        } else {
+            Outcome::default()
         };
         out.extend(t.replot(&o, dir)?);
     }

@@ -91,10 +91,11 @@ yet are skipped with a note in DIR/README.md.")]
         #[arg(long, value_delimiter = ',')]
         only: Vec<String>,
     },
-    /// Redraw the plots of a bench output directory from its results.csv (and pairs.csv).
-    #[command(after_help = "Example: tetbench plot out/example")]
+    /// Redraw the plots of a bench output directory from its results.csv (and pairs.csv), or
+    /// of a reproduce directory from its raw/<table>/ rows.
+    #[command(after_help = "Examples: tetbench plot out/example; tetbench plot results")]
     Plot {
-        /// A directory written by `tetbench bench`.
+        /// A directory written by `tetbench bench` or `tetbench reproduce`.
         dir: PathBuf,
     },
     /// Joint bilateral upsampling experiment: time and RMSE per resolution (results/jbu.csv).

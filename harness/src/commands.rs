@@ -55,6 +55,21 @@ pub fn run(cli: Cli) -> Result<()> {
             reference,
             json,
         } => {
+            let ext = |p: &std::path::Path| {
+                p.extension()
+                    .map(|e| e.to_string_lossy().to_ascii_lowercase())
+                    .unwrap_or_default()
+            };
+            if ext(&test) != ext(&reference) {
+                eprintln!(
+                    "tetbench: warning: comparing {} with {}: a PNG holds 8-bit values \
+                     (floor(255 v + 0.5), no gamma) and an EXR the renderer's f32 values \
+                     (docs/contract.md), so the error includes the PNG's quantisation; \
+                     compare EXR with EXR for the renderer's own error",
+                    test.display(),
+                    reference.display()
+                );
+            }
             let a = Image::read(&test)?;
             let b = Image::read(&reference)?;
             let e = metrics::compare(&a, &b).map_err(|e| {
@@ -77,6 +92,13 @@ pub fn run(cli: Cli) -> Result<()> {
             no_plots,
         } => bench_cmd(&config, &out, !no_plots),
         Command::Reproduce { quick, out, only } => crate::reproduce::run(quick, &out, &only),
+        Command::Plot { dir } if dir.join("raw").is_dir() => {
+            // A `reproduce` directory: every table's plots from its raw rows.
+            for p in crate::papers::replot_all(&dir)? {
+                println!("plot: {}", p.display());
+            }
+            Ok(())
+        }
         Command::Plot { dir } => {
             let rows = rows::read_rows(&dir.join("results.csv"))?;
             let pairs = rows::read_pairs(&dir.join("pairs.csv"))?;

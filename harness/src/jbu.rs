@@ -60,7 +60,7 @@ impl Plan {
             )
         };
         Plan {
-            datasets: datasets.iter().map(|s| s.to_string()).collect(),
+            datasets: datasets.iter().map(|s| present_or_analogue(s)).collect(),
             renderers,
             full,
             lows,
@@ -71,8 +71,20 @@ impl Plan {
     }
 }
 
+/// A NASA grid's name when its file is found, else its `datasets-gen` analogue (`blunt-like`),
+/// saying so on stderr: the experiment runs without downloaded data.
+fn present_or_analogue(name: &str) -> String {
+    match algorithms::io::resolve_short_name(name) {
+        Some(Err(_)) => {
+            eprintln!("jbu: {name}: NASA grid not found, using its analogue {name}-like");
+            format!("{name}-like")
+        }
+        _ => name.to_string(),
+    }
+}
+
 /// One CSV row.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Row {
     pub dataset: String,
     pub tets: usize,
@@ -286,6 +298,13 @@ fn write_outputs(rows: &[Row], plan: &Plan, dir: &Path) -> Result<()> {
         .into_inner()
         .map_err(|e| Error::Internal(format!("jbu.csv: {e}")))?;
     write_file(&path, &bytes)?;
+    write_plots(rows, plan, dir)?;
+    eprintln!("jbu: wrote {}", path.display());
+    Ok(())
+}
+
+/// The plots `DIR/jbu_time_<renderer>.svg` and `DIR/jbu_rmse_<renderer>.svg`.
+pub fn write_plots(rows: &[Row], plan: &Plan, dir: &Path) -> Result<()> {
     for rname in &plan.renderers {
         let file = rname.replace(|c: char| !c.is_ascii_alphanumeric() && c != '-', "_");
         let svg = time_plot(rows, plan, rname);
@@ -293,8 +312,37 @@ fn write_outputs(rows: &[Row], plan: &Plan, dir: &Path) -> Result<()> {
         let svg = rmse_plot(rows, plan, rname);
         write_file(&dir.join(format!("jbu_rmse_{file}.svg")), svg.as_bytes())?;
     }
-    eprintln!("jbu: wrote {}", path.display());
     Ok(())
+}
+
+/// Reads a `jbu.csv` back, with the plan it was run with (datasets, renderers, sizes).
+pub fn read_rows(path: &Path) -> Result<(Vec<Row>, Plan)> {
+    let err = |e: csv::Error| Error::Input(format!("{}: {e}", path.display()));
+    let mut r = csv::Reader::from_path(path).map_err(err)?;
+    let rows: Vec<Row> = r
+        .deserialize()
+        .collect::<std::result::Result<_, _>>()
+        .map_err(err)?;
+    let uniq = |f: fn(&Row) -> String| {
+        let mut v: Vec<String> = Vec::new();
+        for x in rows.iter().map(f) {
+            if !v.contains(&x) {
+                v.push(x);
+            }
+        }
+        v
+    };
+    let first = rows.first();
+    let plan = Plan {
+        datasets: uniq(|r| r.dataset.clone()),
+        renderers: uniq(|r| r.renderer.clone()),
+        full: first.map_or(0, |r| r.full_res),
+        lows: Vec::new(),
+        view: first.map_or(View::new(30.0, 20.0), |r| View::new(r.azimuth, r.elevation)),
+        tf: "default".into(),
+        repeats: first.map_or(1, |r| r.repeats),
+    };
+    Ok((rows, plan))
 }
 
 fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
@@ -349,6 +397,20 @@ struct Series {
 
 /// A line plot with a log2 x axis (resolutions) and a linear or log10 y axis.
 fn svg_plot(title: &str, xlabel: &str, ylabel: &str, series: &[Series], log_y: bool) -> String {
+    // Lines join the points in order of resolution, whatever order the rows came in.
+    let sorted: Vec<Series> = series
+        .iter()
+        .map(|s| {
+            let mut points = s.points.clone();
+            points.sort_by(|a, b| a.0.total_cmp(&b.0));
+            Series {
+                points,
+                label: s.label.clone(),
+                ..*s
+            }
+        })
+        .collect();
+    let series = &sorted[..];
     let (w, h) = (720.0, 460.0);
     let (l, r, t, b) = (80.0, 200.0, 40.0, 60.0);
     let pts = || series.iter().flat_map(|s| s.points.iter().copied());

@@ -15,6 +15,7 @@ fn main() -> ExitCode {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
+    quiet_runtime_dir();
     let cli = tetbench::cli::Cli::parse();
     // Ctrl-C: the first stops the run at the next frame (finished rows are already on disk),
     // the second exits at once.
@@ -35,6 +36,25 @@ fn main() -> ExitCode {
                 return ExitCode::from(130);
             }
             ExitCode::from(if e.is_user_error() { 2 } else { 1 })
+        }
+    }
+}
+
+/// The GPU stack (the Vulkan/EGL loaders under wgpu) prints "XDG_RUNTIME_DIR is invalid or not
+/// set" on machines without a login session (containers, CI). Give it a private directory
+/// when there is none, before any thread starts, so the message does not reach the user.
+fn quiet_runtime_dir() {
+    #[cfg(unix)]
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
+        use std::os::unix::fs::PermissionsExt;
+        // SAFETY: getuid has no preconditions.
+        let uid = unsafe { libc::getuid() };
+        let d = std::env::temp_dir().join(format!("tetbench-runtime-{uid}"));
+        if std::fs::create_dir_all(&d).is_ok()
+            && std::fs::set_permissions(&d, std::fs::Permissions::from_mode(0o700)).is_ok()
+        {
+            // Single-threaded here: nothing else reads the environment concurrently.
+            std::env::set_var("XDG_RUNTIME_DIR", &d);
         }
     }
 }

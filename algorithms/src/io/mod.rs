@@ -133,9 +133,21 @@ pub fn resolve_short_name(name: &str) -> Option<Result<(PathBuf, &'static str)>>
             return Some(Ok((p, scalar)));
         }
     }
+    let looked = if dirs.is_empty() {
+        format!(
+            "nowhere: $TETBENCH_DATA is not set and no shared/datasets directory is beside the checkout or the binary (searched upwards from {})",
+            std::env::current_dir()
+                .map(|d| d.display().to_string())
+                .unwrap_or_else(|_| "the current directory".into())
+        )
+    } else {
+        dirs.iter()
+            .map(|d| d.join(file).display().to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
     Some(Err(Error::Input(format!(
-        "{name}: {file} not found in $TETBENCH_DATA or ../shared/datasets (looked in: {}); get it from VTK's example data (Data/{file})",
-        dirs.iter().map(|d| d.display().to_string()).collect::<Vec<_>>().join(", ")
+        "{name}: {file} not found (looked in: {looked}); get it from VTK's example data (Data/{file}) and set TETBENCH_DATA to its directory"
     ))))
 }
 

@@ -302,6 +302,20 @@ pub(crate) fn common_notes(ctx: &Ctx, cfg: &Config) -> Vec<String> {
     if ctx.quick {
         n.push("`--quick`: smaller meshes (see 'mesh used'), smaller images and fewer views than the paper; rates are not comparable to the paper's at face value.".into());
     }
+    let analogues: Vec<&str> = cfg
+        .datasets
+        .iter()
+        .filter(|d| d.mesh.ends_with("-like"))
+        .filter_map(|d| d.label.as_deref())
+        .collect();
+    if !analogues.is_empty() {
+        n.push(format!(
+            "Not the NASA grids: {} are their datasets-gen analogues ({}), because {}.",
+            analogues.join(", "),
+            if ctx.quick { "--quick uses the analogues at reduced size" } else { "the grid files were not found ($TETBENCH_DATA, or shared/datasets beside the checkout)" },
+            if ctx.quick { "a quick run must stay short" } else { "no data was downloaded" }
+        ));
+    }
     if let Some(cap) = cfg.renderers.iter().find_map(|r| r.max_tets) {
         n.push(format!("The GPU adapter is a software rasteriser (see README.md): the ptint and hapt rows of the papers' direct volume rendering variants are measured on meshes up to {cap} tets only (HAPT Table 2's ISO and DVR+ISO rows on all), and their rates say what the algorithms cost on a CPU emulating a GPU, not GPU speed. Rerun on a real GPU for the other rows."));
     }

@@ -1,9 +1,12 @@
 //! The JBU paper (Callahan & Silva): Fig. 3/4 (time per rendering resolution) and Fig. 5 (RMSE
 //! of bilateral against linear and nearest upsampling), from [`crate::jbu`]'s experiment.
 
+use std::path::{Path, PathBuf};
+
 use algorithms::Result;
 
 use super::{Ctx, Done, PaperTable};
+use crate::bench::Outcome;
 
 /// JBU Fig. 3/4 and Fig. 5.
 pub struct Figures;
@@ -25,5 +28,22 @@ impl PaperTable for Figures {
             "[{0}.csv]({0}.csv) and the `{0}_time_*.svg` (Fig. 3/4), `{0}_rmse_*.svg` (Fig. 5) plots",
             self.id()
         )))
+    }
+    /// From the written `jbu.csv`.
+    fn replot(&self, _o: &Outcome, dir: &Path) -> Result<Vec<PathBuf>> {
+        let csv = dir.join("jbu.csv");
+        if !csv.exists() {
+            return Ok(Vec::new());
+        }
+        let (rows, plan) = crate::jbu::read_rows(&csv)?;
+        crate::jbu::write_plots(&rows, &plan, dir)?;
+        Ok(plan
+            .renderers
+            .iter()
+            .flat_map(|r| {
+                let f = r.replace(|c: char| !c.is_ascii_alphanumeric() && c != '-', "_");
+                ["time", "rmse"].map(|k| dir.join(format!("jbu_{k}_{f}.svg")))
+            })
+            .collect())
     }
 }

@@ -6,10 +6,11 @@
 //! family (so a new projected-tetrahedra variant gets rows in every PT table with no change
 //! here), and lay the measured rows out beside the paper's own figures.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use algorithms::Result;
 
+use crate::bench::Outcome;
 use crate::table::Table;
 
 /// A [`PaperTable`] over an experiment: `table!(Type, id, title, about, experiment, build,
@@ -31,6 +32,13 @@ macro_rules! table {
             }
             fn run(&self, ctx: &Ctx) -> Result<Done> {
                 $crate::papers::common::run_experiment(self, ctx, $exp, $build, &$plots)
+            }
+            fn replot(
+                &self,
+                o: &$crate::bench::Outcome,
+                dir: &std::path::Path,
+            ) -> Result<Vec<std::path::PathBuf>> {
+                ($plots)(o, dir)
             }
         }
     };
@@ -71,6 +79,11 @@ pub trait PaperTable: Sync {
     fn about(&self) -> &'static str;
     /// Measures it.
     fn run(&self, ctx: &Ctx) -> Result<Done>;
+    /// Redraws its plots into `dir` from the raw rows of an earlier run (`DIR/raw/<id>/`);
+    /// tables whose plots do not come from raw rows draw none.
+    fn replot(&self, _rows: &Outcome, _dir: &Path) -> Result<Vec<PathBuf>> {
+        Ok(Vec::new())
+    }
 }
 
 /// Every table `reproduce` writes, in order.
@@ -95,4 +108,25 @@ pub fn find(id: &str) -> Option<&'static dyn PaperTable> {
 /// The ids of every table.
 pub fn ids() -> Vec<&'static str> {
     TABLES.iter().map(|t| t.id()).collect()
+}
+
+/// Redraws the plots of every table from what an earlier run wrote into `dir` (the raw rows
+/// under `dir/raw/<id>/`, or the table itself).
+pub fn replot_all(dir: &Path) -> Result<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    for t in TABLES {
+        let raw = dir.join("raw").join(t.id());
+        let csv = raw.join("results.csv");
+        let o = if csv.exists() {
+            Outcome {
+                rows: crate::rows::read_rows(&csv)?,
+                pairs: crate::rows::read_pairs(&raw.join("pairs.csv"))?,
+                ..Default::default()
+            }
+        } else {
+            Outcome::default()
+        };
+        out.extend(t.replot(&o, dir)?);
+    }
+    Ok(out)
 }

@@ -14,70 +14,39 @@ use crate::plots;
 use crate::rows::Row;
 use crate::table::{count, fixed as f, Table};
 
-/// PTINT Table 1.
-pub struct Table1;
+table!(
+    Table1,
+    "ptint-table1",
+    "PTINT Table 1: data set sizes and average frame rates (rotating model, 512²)",
+    "Frame rate and tet/s of every projected-tetrahedra renderer (partial pre-integration) and the ray caster on the papers' datasets, the model rotating about the vertical axis. Each row carries its RMSE against the exact reference and its bytes per tet. Compare tet/s across rows of one run, not with the paper's 2006 GPU.",
+    ptint_t1_exp,
+    ptint_t1_build,
+    |o: &Outcome, d: &std::path::Path| {
+        let mut v = plots::tets_per_s_vs_size(&o.rows, &d.join("ptint-table1-tets_per_s"))?;
+        v.extend(plots::speed_vs_error(&o.rows, &d.join("ptint-table1-speed_vs_error"))?);
+        Ok(v)
+    }
+);
 
-impl PaperTable for Table1 {
-    fn id(&self) -> &'static str {
-        "ptint-table1"
-    }
-    fn title(&self) -> &'static str {
-        "PTINT Table 1: data set sizes and average frame rates (rotating model, 512²)"
-    }
-    fn about(&self) -> &'static str {
-        "Frame rate and tet/s of every projected-tetrahedra renderer (partial pre-integration) and the ray caster on the papers' datasets, the model rotating about the vertical axis. Each row carries its RMSE against the exact reference and its bytes per tet. Compare tet/s across rows of one run, not with the paper's 2006 GPU."
-    }
-    fn run(&self, ctx: &Ctx) -> Result<Done> {
-        run_experiment(self, ctx, ptint_t1_exp, ptint_t1_build, &|o, d| {
-            let mut v = plots::tets_per_s_vs_size(&o.rows, &d.join("ptint-table1-tets_per_s"))?;
-            v.extend(plots::speed_vs_error(
-                &o.rows,
-                &d.join("ptint-table1-speed_vs_error"),
-            )?);
-            Ok(v)
-        })
-    }
-}
+table!(
+    Table2,
+    "ptint-table2",
+    "PTINT Table 2: frame rates against other algorithms (blunt, post, 512², rotating)",
+    "The same frame rates on blunt and post beside PTINT's competitors; our ray caster stands in for HARC (partial and full pre-integration). Rows without a counterpart here (GATOR, VICP) keep only the paper's figures.",
+    ptint_t2_exp,
+    ptint_t2_build,
+    |o: &Outcome, d: &std::path::Path| plots::speed_vs_error(&o.rows, &d.join("ptint-table2-speed_vs_error"))
+);
 
-/// PTINT Table 2.
-pub struct Table2;
-
-impl PaperTable for Table2 {
-    fn id(&self) -> &'static str {
-        "ptint-table2"
-    }
-    fn title(&self) -> &'static str {
-        "PTINT Table 2: frame rates against other algorithms (blunt, post, 512², rotating)"
-    }
-    fn about(&self) -> &'static str {
-        "The same frame rates on blunt and post beside PTINT's competitors; our ray caster stands in for HARC (partial and full pre-integration). Rows without a counterpart here (GATOR, VICP) keep only the paper's figures."
-    }
-    fn run(&self, ctx: &Ctx) -> Result<Done> {
-        run_experiment(self, ctx, ptint_t2_exp, ptint_t2_build, &|o, d| {
-            plots::speed_vs_error(&o.rows, &d.join("ptint-table2-speed_vs_error"))
-        })
-    }
-}
-
-/// PTINT Figure 8.
-pub struct Fig8;
-
-impl PaperTable for Fig8 {
-    fn id(&self) -> &'static str {
-        "ptint-fig8"
-    }
-    fn title(&self) -> &'static str {
-        "PTINT Figure 8: frame time and K tet/s against viewport size (post)"
-    }
-    fn about(&self) -> &'static str {
-        "Frame time and K tet/s against the viewport size on post: how much of each renderer's time is per pixel (rasterisation, integration) and how much per tet (projection, sort)."
-    }
-    fn run(&self, ctx: &Ctx) -> Result<Done> {
-        run_experiment(self, ctx, ptint_fig8_exp, ptint_fig8_build, &|o, d| {
-            plots::time_vs_viewport(&o.rows, &d.join("ptint-fig8-time_vs_viewport"))
-        })
-    }
-}
+table!(
+    Fig8,
+    "ptint-fig8",
+    "PTINT Figure 8: frame time and K tet/s against viewport size (post)",
+    "Frame time and K tet/s against the viewport size on post: how much of each renderer's time is per pixel (rasterisation, integration) and how much per tet (projection, sort).",
+    ptint_fig8_exp,
+    ptint_fig8_build,
+    |o: &Outcome, d: &std::path::Path| plots::time_vs_viewport(&o.rows, &d.join("ptint-fig8-time_vs_viewport"))
+);
 
 // PTINT Table 1.
 

@@ -179,6 +179,7 @@ where
     chart.draw_series(texts)?;
     chart
         .configure_series_labels()
+        .label_font(("sans-serif", 16))
         .background_style(WHITE.mix(0.8))
         .border_style(BLACK)
         .position(SeriesLabelPosition::LowerRight)

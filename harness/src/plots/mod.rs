@@ -9,7 +9,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use algorithms::{Error, Result};
-use plotters::coord::Shift;
+use plotters::coord::{CoordTranslate, Shift};
 use plotters::prelude::*;
 
 use crate::rows::{PairRow, Row};
@@ -113,11 +113,40 @@ pub fn pareto_front(pts: &[SpeedError]) -> Vec<usize> {
     front
 }
 
-/// Speed against error, one point per variant, the Pareto front joined.
+/// The datasets a plot aggregates over: those on which every variant has a measured row (so
+/// that no variant is averaged over easier or harder meshes than another); when no dataset is
+/// shared by all, the one shared by the most variants.
+pub fn common_datasets(rows: &[&Row]) -> Vec<String> {
+    let by_variant = group(rows.iter().copied(), |r| r.variant.clone());
+    let sets: Vec<std::collections::BTreeSet<&str>> = by_variant
+        .iter()
+        .map(|(_, rs)| rs)
+        .map(|rs| rs.iter().map(|r| r.dataset.as_str()).collect())
+        .collect();
+    let all: std::collections::BTreeSet<&str> = rows.iter().map(|r| r.dataset.as_str()).collect();
+    let common: Vec<String> = all
+        .iter()
+        .filter(|d| sets.iter().all(|s| s.contains(*d)))
+        .map(|d| d.to_string())
+        .collect();
+    if !common.is_empty() {
+        return common;
+    }
+    all.iter()
+        .max_by_key(|d| sets.iter().filter(|s| s.contains(*d)).count())
+        .map(|d| vec![d.to_string()])
+        .unwrap_or_default()
+}
+
+/// Speed against error, one point per variant (mean RMSE and median M tet/s over the views of
+/// the datasets every variant ran on), the Pareto front joined.
 pub fn speed_vs_error(rows: &[Row], stem: &Path) -> Result<Vec<PathBuf>> {
-    let pts: Vec<SpeedError> = group(ok_rows(rows).filter(|r| r.rmse.is_some()), |r| {
-        r.variant.clone()
-    })
+    let ok: Vec<&Row> = ok_rows(rows).filter(|r| r.rmse.is_some()).collect();
+    let datasets = common_datasets(&ok);
+    let pts: Vec<SpeedError> = group(
+        ok.iter().copied().filter(|r| datasets.contains(&r.dataset)),
+        |r| r.variant.clone(),
+    )
     .into_iter()
     .map(|(label, rs)| SpeedError {
         label,
@@ -128,64 +157,150 @@ pub fn speed_vs_error(rows: &[Row], stem: &Path) -> Result<Vec<PathBuf>> {
     if pts.is_empty() {
         return Ok(Vec::new());
     }
-    Ok(draw_both!(stem, draw_speed_error, &pts))
+    let what = format!("each point: one variant over {}", datasets.join(", "));
+    Ok(draw_both!(stem, draw_speed_error, &pts, &what))
 }
 
-fn draw_speed_error<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, pts: &[SpeedError]) -> PResult
+/// A log axis range of whole decades around `[lo, hi]` (at least two decades), so that the
+/// axis has a labelled tick at every power of ten.
+pub fn decades(lo: f64, hi: f64) -> (f64, f64) {
+    let a = lo.max(1e-300).log10().floor();
+    let mut b = hi.max(1e-300).log10().ceil();
+    if b < a + 2.0 {
+        b = a + 2.0;
+    }
+    (10f64.powf(a), 10f64.powf(b))
+}
+
+/// A log-axis tick label: `1e-4`, `1e-3`, … at powers of ten, nothing between.
+fn decade_label(v: &f64) -> String {
+    let e = v.log10();
+    if (e - e.round()).abs() < 1e-6 {
+        format!("1e{}", e.round() as i32)
+    } else {
+        String::new()
+    }
+}
+
+/// Labels longer than this are shortened in legends.
+const LEGEND_CHARS: usize = 44;
+
+/// A legend beside the chart (never over the data): a marker and a label per entry.
+fn side_legend<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, labels: &[String]) -> PResult
+where
+    DB::ErrorType: 'static,
+{
+    for (i, l) in labels.iter().enumerate() {
+        let y = 60 + 20 * i as i32;
+        draw_marker(area, i, (12, y), 5)?;
+        let text: String = if l.chars().count() > LEGEND_CHARS {
+            l.chars().take(LEGEND_CHARS - 1).chain(['…']).collect()
+        } else {
+            l.clone()
+        };
+        area.draw(&Text::new(text, (24, y - 7), ("sans-serif", 14)))?;
+    }
+    Ok(())
+}
+
+/// Marker `i`: ten colours, then the same colours as triangles, then squares, so that no two
+/// series look alike.
+fn draw_marker<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    i: usize,
+    at: (i32, i32),
+    size: i32,
+) -> PResult
+where
+    DB::ErrorType: 'static,
+{
+    let c = color(i).filled();
+    match (i / 10) % 3 {
+        0 => area.draw(&Circle::new(at, size, c))?,
+        1 => area.draw(&TriangleMarker::new(at, size + 2, c))?,
+        _ => area.draw(&Rectangle::new(
+            [(at.0 - size, at.1 - size), (at.0 + size, at.1 + size)],
+            c,
+        ))?,
+    }
+    Ok(())
+}
+
+/// The same marker in chart coordinates.
+fn marker_series<DB: DrawingBackend, CT: CoordTranslate<From = (f64, f64)>>(
+    chart: &mut ChartContext<'_, DB, CT>,
+    i: usize,
+    at: (f64, f64),
+    size: i32,
+) -> PResult
+where
+    DB::ErrorType: 'static,
+{
+    let c = color(i).filled();
+    match (i / 10) % 3 {
+        0 => {
+            chart.draw_series(std::iter::once(Circle::new(at, size, c)))?;
+        }
+        1 => {
+            chart.draw_series(std::iter::once(TriangleMarker::new(at, size + 2, c)))?;
+        }
+        _ => {
+            chart.draw_series(std::iter::once(
+                EmptyElement::at(at) + Rectangle::new([(-size, -size), (size, size)], c),
+            ))?;
+        }
+    }
+    Ok(())
+}
+
+fn draw_speed_error<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    pts: &[SpeedError],
+    what: &str,
+) -> PResult
 where
     DB::ErrorType: 'static,
 {
     root.fill(&WHITE)?;
+    let (left, right) = root.split_horizontally(SIZE.0 * 64 / 100);
     let floor = 1e-6;
     let xs: Vec<f64> = pts.iter().map(|p| p.rmse.max(floor)).collect();
-    let (x0, x1) = (
-        xs.iter().cloned().fold(f64::INFINITY, f64::min) / 2.0,
-        xs.iter().cloned().fold(0.0, f64::max) * 2.0,
+    let (x0, x1) = decades(
+        xs.iter().cloned().fold(f64::INFINITY, f64::min),
+        xs.iter().cloned().fold(0.0, f64::max),
     );
     let y1 = pts.iter().map(|p| p.mtets).fold(0.0, f64::max) * 1.15 + 1e-9;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(
-            "Speed against error (Pareto front in red)",
-            ("sans-serif", 24),
-        )
+    let mut chart = ChartBuilder::on(&left)
+        .caption("Speed against error", ("sans-serif", 24))
         .margin(15)
-        .x_label_area_size(50)
+        .x_label_area_size(60)
         .y_label_area_size(70)
         .build_cartesian_2d((x0..x1).log_scale(), 0.0..y1)?;
     chart
         .configure_mesh()
         .x_desc(format!(
-            "RMSE against reference (mean over views; 0 drawn at {floor:e})"
+            "RMSE against the exact reference (mean over views; 0 drawn at {floor:e})"
         ))
-        .y_desc("M tet/s (median)")
-        .x_label_formatter(&|v| format!("{v:.0e}"))
+        .y_desc("M tet/s (median over views)")
+        .x_label_formatter(&decade_label)
         .draw()?;
     let front = pareto_front(pts);
-    chart
-        .draw_series(LineSeries::new(
-            front.iter().map(|&i| (xs[i], pts[i].mtets)),
-            RED.stroke_width(2),
-        ))?
-        .label("Pareto front")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED.stroke_width(2)));
+    chart.draw_series(LineSeries::new(
+        front.iter().map(|&i| (xs[i], pts[i].mtets)),
+        RED.stroke_width(2),
+    ))?;
     for (i, p) in pts.iter().enumerate() {
-        let c = color(i);
-        let on_front = front.contains(&i);
-        chart
-            .draw_series(std::iter::once(Circle::new(
-                (xs[i], p.mtets),
-                if on_front { 7 } else { 5 },
-                c.filled(),
-            )))?
-            .label(p.label.clone())
-            .legend(move |(x, y)| Circle::new((x + 10, y), 5, c.filled()));
+        let size = if front.contains(&i) { 7 } else { 5 };
+        marker_series(&mut chart, i, (xs[i], p.mtets), size)?;
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()?;
+    right.draw(&Text::new(
+        "red line: Pareto front",
+        (10, 15),
+        ("sans-serif", 14),
+    ))?;
+    right.draw(&Text::new(what.to_string(), (10, 33), ("sans-serif", 12)))?;
+    let labels: Vec<String> = pts.iter().map(|p| p.label.clone()).collect();
+    side_legend(&right, &labels)?;
     root.present()?;
     Ok(())
 }
@@ -315,27 +430,21 @@ where
         y0 = y0.min(y);
         y1 = y1.max(y);
     }
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 24))
+    let (left, right) = root.split_horizontally(SIZE.0 * 68 / 100);
+    let (x0, x1) = decades(x0, x1);
+    let (y0, y1) = decades(y0.max(1e-12), y1);
+    let mut chart = ChartBuilder::on(&left)
+        .caption(title, ("sans-serif", 20))
         .margin(15)
-        .x_label_area_size(50)
+        .x_label_area_size(60)
         .y_label_area_size(80)
-        .build_cartesian_2d(
-            (x0 / 1.5..x1 * 1.5).log_scale(),
-            (y0.max(1e-12) / 2.0..y1 * 2.0).log_scale(),
-        )?;
+        .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())?;
     chart
         .configure_mesh()
         .x_desc(xd)
         .y_desc(yd)
-        .x_label_formatter(&|v| {
-            if *v >= 100.0 {
-                format!("{v:.0}")
-            } else {
-                format!("{v:.3}")
-            }
-        })
-        .y_label_formatter(&|v| format!("{v:.2e}"))
+        .x_label_formatter(&decade_label)
+        .y_label_formatter(&decade_label)
         .draw()?;
     for (i, s) in series.iter().enumerate() {
         let c = color(i);
@@ -346,18 +455,13 @@ where
             }
             None => s.pts.clone(),
         };
-        chart
-            .draw_series(LineSeries::new(line, c.stroke_width(2)))?
-            .label(s.label.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
-        chart.draw_series(s.pts.iter().map(|&p| Circle::new(p, 4, c.filled())))?;
+        chart.draw_series(LineSeries::new(line, c.stroke_width(2)))?;
+        for &p in &s.pts {
+            marker_series(&mut chart, i, p, 4)?;
+        }
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperLeft)
-        .draw()?;
+    let labels: Vec<String> = series.iter().map(|s| s.label.clone()).collect();
+    side_legend(&right, &labels)?;
     root.present()?;
     Ok(())
 }
@@ -431,40 +535,31 @@ where
     DB::ErrorType: 'static,
 {
     root.fill(&WHITE)?;
+    let (left, right) = root.split_horizontally(SIZE.0 * 66 / 100);
     let floor = 1e-6;
     let xs: Vec<f64> = pts.iter().map(|p| p.rmse.max(floor)).collect();
-    let x0 = xs.iter().cloned().fold(f64::INFINITY, f64::min) / 1.5;
-    let x1 = xs.iter().cloned().fold(0.0, f64::max) * 1.5;
+    let (x0, x1) = decades(
+        xs.iter().cloned().fold(f64::INFINITY, f64::min),
+        xs.iter().cloned().fold(0.0, f64::max),
+    );
     let y1 = pts.iter().map(|p| p.time_ms).fold(0.0, f64::max) * 1.15 + 1e-9;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 24))
+    let mut chart = ChartBuilder::on(&left)
+        .caption(title, ("sans-serif", 18))
         .margin(15)
-        .x_label_area_size(50)
+        .x_label_area_size(60)
         .y_label_area_size(70)
         .build_cartesian_2d((x0..x1).log_scale(), 0.0..y1)?;
     chart
         .configure_mesh()
         .x_desc("RMSE against the analytic ground truth")
         .y_desc("time per frame (ms, median)")
-        .x_label_formatter(&|v| format!("{v:.1e}"))
+        .x_label_formatter(&decade_label)
         .draw()?;
     for (i, p) in pts.iter().enumerate() {
-        let c = color(i);
-        chart
-            .draw_series(std::iter::once(Circle::new(
-                (xs[i], p.time_ms),
-                6,
-                c.filled(),
-            )))?
-            .label(p.label.clone())
-            .legend(move |(x, y)| Circle::new((x + 10, y), 5, c.filled()));
+        marker_series(&mut chart, i, (xs[i], p.time_ms), 6)?;
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::LowerRight)
-        .draw()?;
+    let labels: Vec<String> = pts.iter().map(|p| p.label.clone()).collect();
+    side_legend(&right, &labels)?;
     root.present()?;
     Ok(())
 }

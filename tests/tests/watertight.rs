@@ -6,7 +6,8 @@
 //! The CI test uses a few Fibonacci views at small sizes; `full_check` (ignored) is the ≥ 100
 //! views at 256² check, run in release:
 //! `cargo test --release -p tetbench-tests --test watertight -- --ignored --nocapture`
-//! (`WATERTIGHT_VIEWS`, `WATERTIGHT_SIZE` override the view count and size).
+//! (`WATERTIGHT_VIEWS`, `WATERTIGHT_SIZE` override the view count and size, `WATERTIGHT_MESHES`
+//! a comma-separated list of mesh names restricts it).
 
 mod common;
 
@@ -124,12 +125,23 @@ fn full_check() {
         env("WATERTIGHT_VIEWS", 100),
         env("WATERTIGHT_SIZE", 256) as u32,
     );
+    // WATERTIGHT_MESHES=blunt,hard-caps picks meshes by name (default: all).
+    let only = std::env::var("WATERTIGHT_MESHES").ok();
+    let wanted = |name: &str| {
+        only.as_ref()
+            .is_none_or(|o| o.split(',').any(|m| m == name))
+    };
     for name in ["blunt", "post", "comb"] {
+        if !wanted(name) {
+            continue;
+        }
         if let Some(mesh) = common::nasa(name) {
             check(name, &mesh, views, size);
         }
     }
     for (name, mesh) in hard_cases() {
-        check(name, &mesh, views, size);
+        if wanted(name) {
+            check(name, &mesh, views, size);
+        }
     }
 }

@@ -477,11 +477,13 @@ mod tests {
         for name in ["average", "partial", "preint"] {
             let integ = FastIntegrator::new(name, &tf).unwrap();
             for round in 0..40 {
-                let mut b = ShadeBatch::default();
-                b.len = if round % 5 == 4 {
-                    1 + round % BATCH
-                } else {
-                    BATCH
+                let mut b = ShadeBatch {
+                    len: if round % 5 == 4 {
+                        1 + round % BATCH
+                    } else {
+                        BATCH
+                    },
+                    ..Default::default()
                 };
                 for k in 0..BATCH {
                     b.sf[k] = 1.4 * rnd() - 0.2;

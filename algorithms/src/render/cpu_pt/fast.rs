@@ -83,9 +83,9 @@ pub(super) fn draw_tile(
             ];
             let row = ((sp.j - y0) as usize * ts) as u16;
             let n = (sp.i1 - sp.i0 + 1) as usize;
-            let mut i = (sp.i0 - x0) as u16;
+            let i0 = (sp.i0 - x0) as u16;
             let mut v = sp.v;
-            for k in 0..n {
+            for (k, i) in (i0..).take(n).enumerate() {
                 let kf = k as f32;
                 let len = batch.len;
                 batch.sf[len] = a0[0] + kf * da[0];
@@ -94,7 +94,6 @@ pub(super) fn draw_tile(
                 pix[len] = row + i;
                 let covered = (v[0] > 0) & (v[1] > 0) & (v[2] > 0);
                 batch.len += covered as usize;
-                i += 1;
                 v[0] += sp.st[0];
                 v[1] += sp.st[1];
                 v[2] += sp.st[2];

@@ -1,0 +1,95 @@
+//! Binning of `cpu-pt`'s tets to tiles: a counting sort of the (tet, tile) pairs by tile, stable
+//! in the visibility order, into one flat array (no per-tile `Vec`s).
+
+use rayon::prelude::*;
+
+use super::TileRect;
+
+/// The tets of every tile in visibility order, in one array (a counting sort of the
+/// (tet, tile) pairs by tile, stable in the order): tile k's tets are
+/// `items[start[k]..start[k + 1]]`.
+#[derive(Default)]
+pub(super) struct Bins {
+    start: Vec<u32>,
+    pub(super) items: Vec<u32>,
+    /// Per chunk of the order, its running offset per tile.
+    offsets: Vec<Vec<u32>>,
+}
+
+impl Bins {
+    pub(super) fn bytes(&self) -> usize {
+        (self.start.capacity() + self.items.capacity()) * 4
+            + self.offsets.iter().map(|o| o.capacity() * 4).sum::<usize>()
+    }
+
+    pub(super) fn tile(&self, k: usize) -> &[u32] {
+        &self.items[self.start[k] as usize..self.start[k + 1] as usize]
+    }
+
+    /// Bins `order` by the tile ranges `rects` (per tet) of a `ntx`-wide grid of `ntiles`:
+    /// chunks of the order counted in parallel, offsets by a prefix sum over (tile, chunk), then
+    /// each chunk writes its own disjoint ranges.
+    pub(super) fn build(&mut self, order: &[u32], rects: &[TileRect], ntx: usize, ntiles: usize) {
+        let nchunks = (rayon::current_num_threads().max(1) * 4).min(order.len().max(1));
+        let chunk = order.len().div_ceil(nchunks).max(1);
+        let chunks: Vec<&[u32]> = order.chunks(chunk).collect();
+        self.offsets.resize_with(chunks.len(), Vec::new);
+        self.offsets.truncate(chunks.len());
+        self.offsets
+            .par_iter_mut()
+            .zip(&chunks)
+            .for_each(|(cnt, ids)| {
+                cnt.clear();
+                cnt.resize(ntiles, 0);
+                for &t in ids.iter() {
+                    let r = rects[t as usize];
+                    for ty in r[1]..=r[3] {
+                        let row = ty as usize * ntx;
+                        for tx in r[0]..=r[2] {
+                            cnt[row + tx as usize] += 1;
+                        }
+                    }
+                }
+            });
+        self.start.clear();
+        self.start.resize(ntiles + 1, 0);
+        let mut sum = 0u32;
+        for k in 0..ntiles {
+            self.start[k] = sum;
+            for c in self.offsets.iter_mut() {
+                let n = c[k];
+                c[k] = sum;
+                sum += n;
+            }
+        }
+        self.start[ntiles] = sum;
+        self.items.clear();
+        self.items.resize(sum as usize, 0);
+        let out = SharedOut(self.items.as_mut_ptr());
+        self.offsets
+            .par_iter_mut()
+            .zip(&chunks)
+            .for_each(|(off, ids)| {
+                let out = &out;
+                for &t in ids.iter() {
+                    let r = rects[t as usize];
+                    for ty in r[1]..=r[3] {
+                        let row = ty as usize * ntx;
+                        for tx in r[0]..=r[2] {
+                            let o = &mut off[row + tx as usize];
+                            // SAFETY: chunk c's pairs of tile k go to
+                            // [offset(k, c), offset(k, c + 1)), disjoint from every other
+                            // (tile, chunk)'s range and inside `items` (sized to the total).
+                            unsafe { out.0.add(*o as usize).write(t) };
+                            *o += 1;
+                        }
+                    }
+                }
+            });
+    }
+}
+
+/// The bins' output array, written by several threads at disjoint indices.
+struct SharedOut(*mut u32);
+// SAFETY: see `Bins::build`: every index is written by exactly one thread.
+unsafe impl Sync for SharedOut {}

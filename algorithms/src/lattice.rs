@@ -1,5 +1,5 @@
 //! The lattice description that travels with a lattice mesh (`mesh.field_data["lattice"]`), read
-//! by the lattice sorts ([`crate::sort`]'s `bcc-implicit`) and written by `datasets-gen`, which
+//! by the lattice sorts (`bcc-implicit` in the sort module) and written by `datasets-gen`, which
 //! builds the meshes: one definition for both sides.
 //!
 //! `[kind, nx, ny, nz, ox, oy, oz, hx, hy, hz]`: kind 0 = `cc5`, 1 = `cc6`, 2 = `bcc`; grid

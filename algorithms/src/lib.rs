@@ -14,6 +14,7 @@ pub mod mesh;
 pub mod metrics;
 pub mod optics;
 pub mod optics_f32;
+pub mod plugin;
 pub mod pt;
 pub mod render;
 pub mod sort;

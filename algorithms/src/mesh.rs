@@ -346,6 +346,15 @@ impl Mesh {
             .get_or_init(|| build_adjacency(&self.tets))
     }
 
+    /// The face adjacency without caching it in the mesh (the cached one if it is already
+    /// built), for a renderer that keeps a compact copy of its own and should not pay twice.
+    pub fn adjacency_transient(&self) -> std::borrow::Cow<'_, Adjacency> {
+        match self.cache.adjacency.get() {
+            Some(a) => std::borrow::Cow::Borrowed(a),
+            None => std::borrow::Cow::Owned(build_adjacency(&self.tets)),
+        }
+    }
+
     /// Neighbour of tet `t` across face `f`, or [`BOUNDARY`].
     #[inline]
     pub fn neighbor(&self, t: usize, f: usize) -> u32 {

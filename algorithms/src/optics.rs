@@ -41,24 +41,69 @@ pub trait Integrator: Send + Sync {
     fn segment(&self, sf: f64, sb: f64, l: f64) -> Segment;
 }
 
-/// Names accepted by [`integrator`].
-pub const INTEGRATORS: [&str; 4] = ["average", "partial", "preint", "exact"];
+/// An integrator's registry entry (the integrators are all defined in this file).
+pub struct IntegratorInfo {
+    pub name: &'static str,
+    pub description: &'static str,
+    /// Whether the GPU renderers have it (their tables are in the gpu module).
+    pub on_gpu: bool,
+    pub make: fn(&TransferFunction) -> Box<dyn Integrator>,
+}
 
-/// Builds an integrator by name for a transfer function; unknown name -> `Error::Input` listing the
-/// known ones.
+/// `average`.
+pub const AVERAGE: IntegratorInfo = IntegratorInfo {
+    name: "average",
+    description: "the segment's mean colour and extinction (CONVENTIONS §4; fastest, least exact)",
+    on_gpu: true,
+    make: |tf| Box::new(Average::new(tf)),
+};
+/// `partial`.
+pub const PARTIAL: IntegratorInfo = IntegratorInfo {
+    name: "partial",
+    description: "partial pre-integration (Moreland & Angel 2004): linear τ, per-piece Ψ table",
+    on_gpu: true,
+    make: |tf| Box::new(Partial::new(tf)),
+};
+/// `preint`.
+pub const PREINT: IntegratorInfo = IntegratorInfo {
+    name: "preint",
+    description: "full pre-integration: a table over (s_f, s_b, l) (Röttger et al. 2000)",
+    on_gpu: true,
+    make: |tf| Box::new(Preint::new(tf)),
+};
+/// `exact`.
+pub const EXACT: IntegratorInfo = IntegratorInfo {
+    name: "exact",
+    description: "the emission–absorption integral to ~1e-12, per TF piece (the reference's)",
+    on_gpu: false,
+    make: |tf| Box::new(Exact::new(tf)),
+};
+
+/// Every integrator, in `tetbench list` order: the one place integrator names are known.
+pub static REGISTRY: &[&IntegratorInfo] = &[&AVERAGE, &PARTIAL, &PREINT, &EXACT];
+
+/// Names accepted by [`integrator`] (the registry's, for renderer entries).
+pub const INTEGRATORS: [&str; 4] = [AVERAGE.name, PARTIAL.name, PREINT.name, EXACT.name];
+
+/// The registry entry of an integrator name: the one check of integrator names (an unknown
+/// one is one line with the known ones and the closest).
+pub fn info(name: &str) -> Result<&'static IntegratorInfo> {
+    REGISTRY
+        .iter()
+        .copied()
+        .find(|i| i.name == name)
+        .ok_or_else(|| {
+            Error::Input(format!(
+                "unknown integrator '{name}' (known: {}){}",
+                INTEGRATORS.join(", "),
+                crate::plugin::did_you_mean(name, &INTEGRATORS)
+            ))
+        })
+}
+
+/// Builds an integrator by name for a transfer function.
 pub fn integrator(name: &str, tf: &TransferFunction) -> Result<Box<dyn Integrator>> {
-    Ok(match name {
-        "average" => Box::new(Average::new(tf)),
-        "partial" => Box::new(Partial::new(tf)),
-        "preint" => Box::new(Preint::new(tf)),
-        "exact" => Box::new(Exact::new(tf)),
-        _ => {
-            return Err(Error::Input(format!(
-                "unknown integrator \"{name}\" (known: {})",
-                INTEGRATORS.join(", ")
-            )))
-        }
-    })
+    Ok((info(name)?.make)(tf))
 }
 
 /// Front-to-back compositing helper: `acc = acc + (1 − acc.alpha)·seg` (premultiplied "under";
@@ -579,9 +624,36 @@ impl Integrator for Exact {
         if !valid_input(sf, sb, l) {
             return Segment::default();
         }
-        let mut pieces = Vec::with_capacity(4);
-        split_pieces(&self.tf, sf, sb, &mut pieces);
-        integrate_pieces(&pieces, l)
+        // `split_pieces` + `integrate_pieces`, streamed: the same pieces composited in the same
+        // order, without the two heap allocations per segment (the ray caster calls this once
+        // per cell step).
+        let tf = &self.tf;
+        let span = sb - sf;
+        let (lo, hi) = if sf <= sb { (sf, sb) } else { (sb, sf) };
+        let mut acc = Segment::default();
+        let (mut s0, (mut c0, mut t0)) = (sf, tf.eval(sf));
+        let mut piece = |s1: f64| -> bool {
+            let (c1, t1) = tf.eval(s1);
+            let frac = if span != 0.0 { (s1 - s0) / span } else { 1.0 };
+            if frac > 0.0 {
+                composite_under(&mut acc, piece_segment(c0, t0, c1, t1, frac * l));
+                if acc.alpha >= 1.0 {
+                    return false;
+                }
+            }
+            (s0, c0, t0) = (s1, c1, t1);
+            true
+        };
+        let inner = |p: &&crate::tf::TfPoint| p.s > lo && p.s < hi;
+        let more = if sf <= sb {
+            tf.points.iter().filter(inner).all(|p| piece(p.s))
+        } else {
+            tf.points.iter().rev().filter(inner).all(|p| piece(p.s))
+        };
+        if more {
+            piece(sb);
+        }
+        acc
     }
 }
 

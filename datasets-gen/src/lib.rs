@@ -101,6 +101,10 @@ pub struct Generator {
     pub build: fn(usize, u64) -> Result<Generated>,
 }
 
+/// The seed of every generated mesh when none is given (`datasets-gen --seed`, `tetbench`'s
+/// `--seed` and experiment files' `seed`): one default, so a name means one mesh everywhere.
+pub const DEFAULT_SEED: u64 = 1;
+
 /// Upper bound on a requested tet count (indices are u32; memory stays sane).
 pub const MAX_TETS: usize = 200_000_000;
 

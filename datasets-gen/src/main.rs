@@ -18,8 +18,8 @@ struct Args {
     /// Number of tets (default: the generator's size).
     #[arg(long)]
     tets: Option<usize>,
-    /// Random seed (jitter, Gaussian centres).
-    #[arg(long, default_value_t = 0)]
+    /// Random seed (jitter, Gaussian centres); the same default as tetbench's.
+    #[arg(long, default_value_t = datasets_gen::DEFAULT_SEED)]
     seed: u64,
     /// Output file (.off or .vtu). A time-varying mesh written to .off gives one file per
     /// step, FILE with `.NNNN` before the extension.

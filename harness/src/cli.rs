@@ -4,6 +4,8 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand};
 
+use crate::meshes::MeshSpec;
+
 #[derive(Parser, Debug)]
 #[command(
     name = "tetbench",
@@ -97,7 +99,7 @@ yet are skipped with a note in DIR/README.md.")]
     },
     /// Joint bilateral upsampling experiment: time and RMSE per resolution (results/jbu.csv).
     #[command(after_help = "Example: tetbench jbu --quick --out results")]
-    Jbu(crate::jbu::JbuArgs),
+    Jbu(JbuArgs),
 }
 
 /// How a mesh is found and read.
@@ -117,9 +119,58 @@ pub struct MeshArgs {
     /// Read a .off file with 1-based indices.
     #[arg(long)]
     pub one_based: bool,
-    /// Seed for datasets-gen meshes.
-    #[arg(long, default_value_t = 1)]
+    /// Seed for datasets-gen meshes (the same default as `datasets-gen --seed`).
+    #[arg(long, default_value_t = crate::meshes::DEFAULT_SEED)]
     pub seed: u64,
+}
+
+impl MeshArgs {
+    /// The plain description of the mesh the rest of the harness works with.
+    pub fn to_spec(&self) -> MeshSpec {
+        MeshSpec {
+            mesh: self.mesh.clone(),
+            scalar: self.scalar.clone(),
+            q_file: self.q_file.clone(),
+            split: self.split,
+            one_based: self.one_based,
+            seed: self.seed,
+        }
+    }
+}
+
+#[derive(Args, Debug)]
+pub struct JbuArgs {
+    /// 512² full size and two small datasets (a smoke run).
+    #[arg(long)]
+    pub quick: bool,
+    /// Output folder for jbu.csv and the plots.
+    #[arg(long, default_value = "results")]
+    pub out: PathBuf,
+    /// Datasets (comma-separated) instead of the default set.
+    #[arg(long, value_delimiter = ',')]
+    pub datasets: Option<Vec<String>>,
+    /// Renderers (comma-separated) instead of every registered one.
+    #[arg(long, value_delimiter = ',')]
+    pub renderers: Option<Vec<String>>,
+    /// Frames per timing of the full-size image and the largest low size (median); smaller
+    /// low sizes take at least 3.
+    #[arg(long, default_value_t = 1)]
+    pub repeats: usize,
+}
+
+impl JbuArgs {
+    /// The experiment's plan: the defaults of `--quick` or a full run, with the flags applied.
+    pub fn to_plan(&self) -> crate::jbu::Plan {
+        let mut plan = crate::jbu::Plan::new(self.quick);
+        if let Some(d) = &self.datasets {
+            plan.datasets = d.clone();
+        }
+        if let Some(r) = &self.renderers {
+            plan.renderers = r.clone();
+        }
+        plan.repeats = self.repeats.max(1);
+        plan
+    }
 }
 
 #[derive(Args, Debug)]

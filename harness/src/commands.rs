@@ -4,13 +4,17 @@ use std::time::Instant;
 
 use algorithms::camera::{Camera, Projection, View};
 use algorithms::image::Image;
-use algorithms::io::{self, LoadOptions, Split};
+use algorithms::io;
 use algorithms::render::{self, RenderOptions};
-use algorithms::{alloc, metrics, optics, tf, Error, Mesh, Result, TransferFunction};
+use algorithms::{alloc, metrics, optics, tf, Error, Result, TransferFunction};
 use serde_json::{json, Map, Value};
 
 use crate::bench;
 use crate::cli::{Cli, Command, MeshArgs, RenderArgs};
+use crate::measure::{measure, Frames};
+use crate::meshes::{load_mesh, parse_size};
+use crate::rows;
+use crate::table;
 
 /// `tetbench bench`: validate everything first, then run, then plot.
 fn bench_cmd(config: &std::path::Path, out: &std::path::Path, plots: bool) -> Result<()> {
@@ -74,14 +78,14 @@ pub fn run(cli: Cli) -> Result<()> {
         } => bench_cmd(&config, &out, !no_plots),
         Command::Reproduce { quick, out, only } => crate::reproduce::run(quick, &out, &only),
         Command::Plot { dir } => {
-            let rows = bench::read_rows(&dir.join("results.csv"))?;
-            let pairs = bench::read_pairs(&dir.join("pairs.csv"))?;
+            let rows = rows::read_rows(&dir.join("results.csv"))?;
+            let pairs = rows::read_pairs(&dir.join("pairs.csv"))?;
             for p in crate::plots::all(&rows, &pairs, &dir)? {
                 println!("plot: {}", p.display());
             }
             Ok(())
         }
-        Command::Jbu(args) => crate::jbu::run(&args),
+        Command::Jbu(args) => crate::jbu::run(&args.to_plan(), &args.out),
     }
 }
 
@@ -101,7 +105,7 @@ fn print_pairs<'a>(pairs: impl IntoIterator<Item = (&'a str, Value)>, as_json: b
                 Value::Number(n) => match (n.as_u64(), n.as_i64(), n.as_f64()) {
                     (Some(u), _, _) => println!("{k}: {u}"),
                     (_, Some(i), _) => println!("{k}: {i}"),
-                    (_, _, Some(f)) => println!("{k}: {}", fmt_f64(f)),
+                    (_, _, Some(f)) => println!("{k}: {}", table::plain(f)),
                     _ => println!("{k}: {n}"),
                 },
                 // serde_json turns inf/NaN into null; say what it was.
@@ -109,22 +113,6 @@ fn print_pairs<'a>(pairs: impl IntoIterator<Item = (&'a str, Value)>, as_json: b
                 other => println!("{k}: {other}"),
             }
         }
-    }
-}
-
-/// A float for `name: value` lines: integers without a fraction, plain decimals in the usual
-/// range, exponent notation for the very small and very large.
-pub fn fmt_f64(v: f64) -> String {
-    if !v.is_finite() {
-        return v.to_string();
-    }
-    let a = v.abs();
-    if v == v.trunc() && a < 1e15 {
-        format!("{}", v as i64)
-    } else if (1e-4..1e15).contains(&a) {
-        format!("{v}")
-    } else {
-        format!("{v:e}")
     }
 }
 
@@ -137,54 +125,9 @@ fn num(v: f64) -> Value {
     }
 }
 
-/// Loads a mesh from a file, a short name, or a datasets-gen name (`name` or `name:tets`).
-pub fn load_mesh(args: &MeshArgs) -> Result<Mesh> {
-    let split = match args.split {
-        None => None,
-        Some(5) => Some(Split::Five),
-        Some(6) => Some(Split::Six),
-        Some(n) => {
-            return Err(Error::Input(format!(
-                "--split {n}: expected 5 or 6 tets per hexahedron"
-            )))
-        }
-    };
-    let opts = LoadOptions {
-        split,
-        scalar: args.scalar.clone(),
-        q_file: args.q_file.clone(),
-        one_based: args.one_based,
-    };
-    let name = args.mesh.as_str();
-    let is_file = std::path::Path::new(name).exists();
-    let short = io::SHORT_NAMES.iter().any(|(n, _, _)| *n == name);
-    if !is_file && !short {
-        let (gen, tets) = match name.split_once(':') {
-            Some((g, n)) => {
-                let t = n.parse::<usize>().map_err(|_| {
-                    Error::Input(format!("{name}: size after ':' must be a tet count"))
-                })?;
-                (g, Some(t))
-            }
-            None => (name, None),
-        };
-        if datasets_gen::generators().iter().any(|g| g.name == gen) {
-            let mut mesh = datasets_gen::generate(gen, tets, args.seed)?;
-            if let Some(s) = &args.scalar {
-                mesh.select_field(s, 0)?;
-            }
-            return Ok(mesh);
-        }
-        return Err(Error::Input(format!(
-            "{name}: no such file, and not a dataset name (see `tetbench list`)"
-        )));
-    }
-    io::load(name, &opts)
-}
-
 fn info(args: &MeshArgs, as_json: bool) -> Result<()> {
     let t0 = Instant::now();
-    let mesh = load_mesh(args)?;
+    let mesh = load_mesh(&args.to_spec())?;
     let load_ms = t0.elapsed().as_secs_f64() * 1e3;
     let bb = mesh.bbox();
     let (lo, hi) = mesh.scalar_range();
@@ -241,22 +184,6 @@ fn info(args: &MeshArgs, as_json: bool) -> Result<()> {
     Ok(())
 }
 
-/// Parses `WxH`.
-pub fn parse_size(s: &str) -> Result<(u32, u32)> {
-    let bad = || {
-        Error::Input(format!(
-            "--size '{s}': expected WxH, e.g. 512x512 (1..=16384)"
-        ))
-    };
-    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
-    let w: u32 = w.trim().parse().map_err(|_| bad())?;
-    let h: u32 = h.trim().parse().map_err(|_| bad())?;
-    if w == 0 || h == 0 || w > 16384 || h > 16384 {
-        return Err(bad());
-    }
-    Ok((w, h))
-}
-
 fn render_cmd(args: &RenderArgs) -> Result<()> {
     // Check every name and flag before the (possibly long) load and render.
     let ext = args
@@ -289,8 +216,11 @@ fn render_cmd(args: &RenderArgs) -> Result<()> {
     let tf = TransferFunction::load(&args.tf)?;
     let view = View::parse(&args.view)?;
     let projection = Projection::parse(&args.projection)?;
-    let (w, h) = parse_size(&args.size)?;
-    let mesh = load_mesh(&args.mesh)?;
+    let (w, h) = parse_size(&args.size).map_err(|e| match e {
+        Error::Input(m) => Error::Input(format!("--{m}")),
+        o => o,
+    })?;
+    let mesh = load_mesh(&args.mesh.to_spec())?;
 
     // Warm the thread pool so its allocations are not counted as the renderer's.
     rayon::broadcast(|_| ());
@@ -299,7 +229,11 @@ fn render_cmd(args: &RenderArgs) -> Result<()> {
     res?;
     let setup_ms = t0.elapsed().as_secs_f64() * 1e3;
     let camera = Camera::new(&mesh.bbox(), view, projection, w, h);
-    let frame = renderer.render(&mesh, &camera)?;
+    let once = Frames {
+        warmup: 0,
+        repeats: 1,
+    };
+    let frame = measure(renderer.as_mut(), &mesh, &camera, once)?;
     frame.image.write(&args.out)?;
 
     let t = frame.times;
@@ -341,17 +275,64 @@ fn render_cmd(args: &RenderArgs) -> Result<()> {
 fn list() {
     println!("renderers:");
     for r in render::REGISTRY {
-        println!("  {:<12} {}", r.name, r.description);
+        println!(
+            "  {:<12} {} [{}{}]",
+            r.name,
+            r.description,
+            r.family.name(),
+            if r.needs_gpu { ", GPU" } else { "" }
+        );
         if !r.sorts.is_empty() {
-            println!("  {:<12}   sorts: {}", "", r.sorts.join(", "));
+            println!(
+                "  {:<12}   sorts: {} (default {})",
+                "",
+                r.sorts.join(", "),
+                r.default_sort
+            );
         }
-        println!("  {:<12}   integrators: {}", "", r.integrators.join(", "));
+        if render::is_wrapper(r.name) {
+            println!("  {:<12}   integrators: {}", "", r.integrators.join(", "));
+        } else {
+            println!(
+                "  {:<12}   integrators: {} (default {})",
+                "",
+                r.integrators.join(", "),
+                r.default_integrator
+            );
+        }
+        for p in r.params {
+            let default = if p.default.is_empty() {
+                String::new()
+            } else {
+                format!(" (default {})", p.default)
+            };
+            println!("  {:<12}   param {}: {}{default}", "", p.name, p.doc);
+        }
     }
-    println!(
-        "sorts: {} (bucket:N for N depth slabs)",
-        algorithms::sort::SORTS.join(", ")
-    );
-    println!("integrators: {}", optics::INTEGRATORS.join(", "));
+    println!("sorts:");
+    for s in algorithms::sort::REGISTRY {
+        let arg = s
+            .params
+            .first()
+            .map(|p| format!(":{}", p.name))
+            .unwrap_or_default();
+        println!("  {:<20} {}", format!("{}{arg}", s.name), s.description);
+        for p in s.params {
+            println!(
+                "  {:<20}   {}: {} (default {})",
+                "", p.name, p.doc, p.default
+            );
+        }
+    }
+    println!("integrators:");
+    for i in optics::REGISTRY {
+        println!(
+            "  {:<12} {}{}",
+            i.name,
+            i.description,
+            if i.on_gpu { "" } else { " [CPU only]" }
+        );
+    }
     println!("transfer functions (presets): {}", tf::PRESETS.join(", "));
     // What the GPU renderers would run on (TETBENCH_ADAPTER=<index or name part> picks one).
     let adapters = algorithms::gpu::adapters();

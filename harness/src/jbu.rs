@@ -15,38 +15,17 @@
 //! hand (no plotting dependency).
 
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
-use std::time::Instant;
+use std::path::Path;
 
 use algorithms::camera::{Camera, Projection, View};
 use algorithms::image::Image;
 use algorithms::jbu::{low_camera, Method, Params, Upsampler};
-use algorithms::render::{self, RenderOptions, Renderer};
+use algorithms::render::{self, Family, RenderOptions, Renderer};
 use algorithms::{metrics, Error, Mesh, Result, TransferFunction};
-use clap::Args;
 
-use crate::cli::MeshArgs;
-use crate::commands::load_mesh;
-
-#[derive(Args, Debug)]
-pub struct JbuArgs {
-    /// 512² full size and two small datasets (a smoke run).
-    #[arg(long)]
-    pub quick: bool,
-    /// Output folder for jbu.csv and the plots.
-    #[arg(long, default_value = "results")]
-    pub out: PathBuf,
-    /// Datasets (comma-separated) instead of the default set.
-    #[arg(long, value_delimiter = ',')]
-    pub datasets: Option<Vec<String>>,
-    /// Renderers (comma-separated) instead of every registered one.
-    #[arg(long, value_delimiter = ',')]
-    pub renderers: Option<Vec<String>>,
-    /// Frames per timing of the full-size image and the largest low size (median); smaller
-    /// low sizes take at least 3.
-    #[arg(long, default_value_t = 1)]
-    pub repeats: usize,
-}
+use crate::measure::{measure, Frames};
+use crate::meshes::{load_mesh, MeshSpec};
+use crate::stats::median;
 
 /// The experiment's settings.
 #[derive(Clone, Debug)]
@@ -62,10 +41,13 @@ pub struct Plan {
 
 impl Plan {
     pub fn new(quick: bool) -> Plan {
+        // Every renderer of the papers' families (the exact reference is the yardstick, not a
+        // contender; wrappers and external programs are not upsampled).
         let renderers = render::REGISTRY
             .iter()
+            .filter(|r| matches!(r.family, Family::Pt | Family::RayCasting))
             .map(|r| r.name)
-            .filter(|n| *n != "reference" && !render::is_wrapper(n))
+            .filter(|n| *n != "reference")
             .map(String::from)
             .collect();
         let (datasets, full, lows): (&[&str], u32, Vec<u32>) = if quick {
@@ -119,59 +101,34 @@ pub struct Row {
     pub elevation: f64,
 }
 
-pub fn run(args: &JbuArgs) -> Result<()> {
-    let mut plan = Plan::new(args.quick);
-    if let Some(d) = &args.datasets {
-        plan.datasets = d.clone();
+/// Checks the plan's names, runs it and writes `DIR/jbu.csv` and the plots.
+pub fn run(plan: &Plan, out: &Path) -> Result<()> {
+    for n in &plan.renderers {
+        render::info(n)?;
     }
-    if let Some(r) = &args.renderers {
-        for n in r {
-            render::info(n)?;
-        }
-        plan.renderers = r.clone();
-    }
-    plan.repeats = args.repeats.max(1);
-    std::fs::create_dir_all(&args.out).map_err(|e| Error::io(&args.out, e))?;
-    let rows = experiment(&plan)?;
-    write_outputs(&rows, &plan, &args.out)?;
+    std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
+    let rows = experiment(plan)?;
+    write_outputs(&rows, plan, out)?;
     summary(&rows);
     Ok(())
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n == 0 {
-        0.0
-    } else if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
-
-/// Renders `reps` frames; the last image and the median wall time and stage times.
+/// `reps` measured frames: the last image, the median wall time and the median stage times.
 fn timed(
     r: &mut dyn Renderer,
     mesh: &Mesh,
     cam: &Camera,
     reps: usize,
 ) -> Result<(Image, f64, [f64; 3])> {
-    let mut wall = Vec::new();
-    let mut stages = Vec::new();
-    let mut img = None;
-    for _ in 0..reps {
-        let t0 = Instant::now();
-        let f = r.render(mesh, cam)?;
-        wall.push(t0.elapsed().as_secs_f64() * 1e3);
-        stages.push([f.times.project_ms, f.times.sort_ms, f.times.draw_ms]);
-        img = Some(f.image);
-    }
-    let st = |k: usize| median(stages.iter().map(|s| s[k]).collect());
+    let frames = Frames {
+        warmup: 0,
+        repeats: reps,
+    };
+    let m = measure(r, mesh, cam, frames)?;
     Ok((
-        img.unwrap_or_else(|| Image::new(1, 1)),
-        median(wall),
-        [st(0), st(1), st(2)],
+        m.image,
+        m.wall_ms,
+        [m.times.project_ms, m.times.sort_ms, m.times.draw_ms],
     ))
 }
 
@@ -192,14 +149,7 @@ pub fn experiment(plan: &Plan) -> Result<Vec<Row>> {
         }))
         .collect();
     for ds in &plan.datasets {
-        let mesh = load_mesh(&MeshArgs {
-            mesh: ds.clone(),
-            scalar: None,
-            q_file: None,
-            split: None,
-            one_based: false,
-            seed: 1,
-        })?;
+        let mesh = load_mesh(&MeshSpec::named(ds))?;
         eprintln!("jbu: {ds} ({} tets)", mesh.num_tets());
         let mut ups: Vec<Upsampler> = variants
             .iter()
@@ -278,7 +228,7 @@ pub fn experiment(plan: &Plan) -> Result<Vec<Row>> {
                     }
                     let img = img.unwrap_or_else(|| Image::new(1, 1));
                     let e = metrics::compare(&img, &full_img)?;
-                    let (depth_ms, filter_ms) = (median(depth), median(filter));
+                    let (depth_ms, filter_ms) = (median(&depth), median(&filter));
                     let time_ms = low_ms + depth_ms + filter_ms;
                     let p = u.params;
                     let bil = p.method == Method::Bilateral;

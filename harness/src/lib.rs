@@ -1,4 +1,11 @@
-//! The `tetbench` harness as a library: the CLI definitions and the commands behind them.
+//! The `tetbench` harness as a library. Layers, each using only those above it:
+//!
+//! - `stats`, `table` (numbers and paper tables), `rows` (measured rows and their CSV),
+//!   `meshes` (where meshes come from), `progress`, `sysinfo`;
+//! - `measure` (the one frame-timing loop), `plots`, `experiment` (experiment files);
+//! - `bench` (running an experiment), `jbu`, `bcc` (their own experiments);
+//! - `papers` (the papers' tables, one file per paper), `reproduce` (the loop over them); `cli` (clap, turned into the plain types above) and
+//!   `commands` (the subcommands), which nothing else uses.
 
 pub mod bcc;
 pub mod bench;
@@ -6,6 +13,13 @@ pub mod cli;
 pub mod commands;
 pub mod experiment;
 pub mod jbu;
+pub mod measure;
+pub mod meshes;
+pub mod papers;
 pub mod plots;
+pub mod progress;
 pub mod reproduce;
+pub mod rows;
+pub mod stats;
 pub mod sysinfo;
+pub mod table;

@@ -20,7 +20,7 @@ fn main() -> ExitCode {
     // the second exits at once.
     let _ = ctrlc::set_handler(|| {
         use std::sync::atomic::Ordering;
-        if tetbench::bench::INTERRUPTED.swap(true, Ordering::SeqCst) {
+        if tetbench::measure::INTERRUPTED.swap(true, Ordering::SeqCst) {
             std::process::exit(130);
         }
         eprintln!(
@@ -31,7 +31,7 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("tetbench: {e}");
-            if tetbench::bench::INTERRUPTED.load(std::sync::atomic::Ordering::SeqCst) {
+            if tetbench::measure::INTERRUPTED.load(std::sync::atomic::Ordering::SeqCst) {
                 return ExitCode::from(130);
             }
             ExitCode::from(if e.is_user_error() { 2 } else { 1 })

@@ -258,7 +258,7 @@ fn bad_experiment_files_exit_2_naming_the_key() {
 
 #[test]
 fn table_writer_writes_csv_and_markdown() {
-    use tetbench::reproduce::{write_table, Table};
+    use tetbench::table::{write_table, Table};
     let d = tmpdir("table");
     let t = Table {
         id: "tiny-table".into(),
@@ -281,7 +281,7 @@ fn table_writer_writes_csv_and_markdown() {
 
 #[test]
 fn reproduce_specs_cover_the_papers_tables() {
-    let ids: Vec<&str> = tetbench::reproduce::specs().iter().map(|s| s.id).collect();
+    let ids = tetbench::papers::ids();
     for want in [
         "ptint-table1",
         "ptint-table2",

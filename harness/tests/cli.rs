@@ -293,3 +293,53 @@ fn bad_input_exits_2_with_one_line_and_no_output_file() {
     assert_eq!(o.status.code(), Some(2));
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// Every registered renderer refuses a parameter it does not declare, and a repeated one, with
+/// one line and exit 2 (the check is the registry's, before anything is made or loaded).
+#[test]
+fn unknown_and_repeated_params_exit_2_for_every_renderer() {
+    let d = tmpdir("params");
+    let o = d.join("x.png");
+    let o = o.to_str().unwrap();
+    for name in algorithms::render::names() {
+        if algorithms::render::is_wrapper(name) {
+            continue;
+        }
+        let r = tetbench(&[
+            "render",
+            "spx:200",
+            "--renderer",
+            name,
+            "--param",
+            "bogus=1",
+            "--size",
+            "8x8",
+            "--out",
+            o,
+        ]);
+        assert_user_error(&r, &format!("renderer '{name}': unknown parameter 'bogus'"));
+        let info = algorithms::render::info(name).unwrap();
+        if let Some(p) = info.params.first() {
+            let kv = format!("{}={}", p.name, p.default);
+            let r = tetbench(&[
+                "render",
+                "spx:200",
+                "--renderer",
+                name,
+                "--param",
+                &kv,
+                "--param",
+                &kv,
+                "--size",
+                "8x8",
+                "--out",
+                o,
+            ]);
+            assert_user_error(&r, "given twice");
+        }
+    }
+    let r = tetbench(&["render", "spx:200", "--renderer", "raycats", "--out", o]);
+    assert_user_error(&r, "did you mean 'raycast'");
+    assert!(!Path::new(o).exists());
+    std::fs::remove_dir_all(&d).ok();
+}

@@ -200,12 +200,17 @@ fn done_when_50_views_at_128() {
 fn diag_views() {
     let tf = TransferFunction::preset("default").unwrap();
     let name = std::env::var("DIAG_MESH").unwrap_or("post".into());
-    let size: u32 = std::env::var("DIAG_SIZE").map(|s| s.parse().unwrap()).unwrap_or(128);
-    let mesh = common::nasa(&name).unwrap_or_else(|| datasets_gen::generate(&name, None, 1).unwrap());
+    let size: u32 = std::env::var("DIAG_SIZE")
+        .map(|s| s.parse().unwrap())
+        .unwrap_or(128);
+    let mesh =
+        common::nasa(&name).unwrap_or_else(|| datasets_gen::generate(&name, None, 1).unwrap());
     let raster = BoundaryRaster::new(&mesh);
     let only: Option<usize> = std::env::var("DIAG_VIEW").ok().map(|s| s.parse().unwrap());
     for (k, view) in fibonacci_views(50).into_iter().enumerate() {
-        if only.is_some_and(|o| o != k) { continue; }
+        if only.is_some_and(|o| o != k) {
+            continue;
+        }
         let cam = Camera::new(&mesh.bbox(), view, Projection::Ortho, size, size);
         let reference = frame(&mesh, &tf, "reference", "", &cam);
         let mut s = algorithms::sort::make("xmpvo").unwrap();
@@ -217,22 +222,36 @@ fn diag_views() {
             eprintln!("view {k} {view:?}: rmse {rmse:.2e} max_abs {max_abs:.2e} {st:?}");
             let pt = frame(&mesh, &tf, "cpu-pt", "xmpvo", &cam);
             let mut worst = (0.0f32, 0, 0);
-            for j in 0..size { for i in 0..size {
-                let a = pt.get(i, j); let b = reference.get(i, j);
-                let d = (0..3).map(|c| (a[c]-b[c]).abs()).fold(0.0, f32::max);
-                if d > worst.0 { worst = (d, i, j); }
-            }}
+            for j in 0..size {
+                for i in 0..size {
+                    let a = pt.get(i, j);
+                    let b = reference.get(i, j);
+                    let d = (0..3).map(|c| (a[c] - b[c]).abs()).fold(0.0, f32::max);
+                    if d > worst.0 {
+                        worst = (d, i, j);
+                    }
+                }
+            }
             eprintln!("   worst pixel {:?}", worst);
             let mut all: Vec<(f32, u32, u32)> = Vec::new();
-            for j in 0..size { for i in 0..size {
-                let a = pt.get(i, j); let b = reference.get(i, j);
-                let d = (0..3).map(|c| (a[c]-b[c]).abs()).fold(0.0, f32::max);
-                if d > 2e-4 { all.push((d, i, j)); }
-            }}
+            for j in 0..size {
+                for i in 0..size {
+                    let a = pt.get(i, j);
+                    let b = reference.get(i, j);
+                    let d = (0..3).map(|c| (a[c] - b[c]).abs()).fold(0.0, f32::max);
+                    if d > 2e-4 {
+                        all.push((d, i, j));
+                    }
+                }
+            }
             all.sort_by(|x, y| y.0.total_cmp(&x.0));
             eprintln!("   {} pixels over 2e-4", all.len());
             for &(d, i, j) in all.iter().take(12) {
-                eprintln!("   ({i},{j}) d {d:.2e} pt {:?} ref {:?}", pt.get(i, j), reference.get(i, j));
+                eprintln!(
+                    "   ({i},{j}) d {d:.2e} pt {:?} ref {:?}",
+                    pt.get(i, j),
+                    reference.get(i, j)
+                );
             }
         }
     }

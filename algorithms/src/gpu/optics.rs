@@ -11,7 +11,11 @@ use crate::tf::TransferFunction;
 use super::{shader, Account, Gpu};
 
 /// The integrators the GPU renderers take (`exact` stays on the CPU: it is the ground truth).
-pub const GPU_INTEGRATORS: [&str; 3] = ["average", "partial", "preint"];
+pub const GPU_INTEGRATORS: [&str; 3] = [
+    crate::optics::AVERAGE.name,
+    crate::optics::PARTIAL.name,
+    crate::optics::PREINT.name,
+];
 
 /// `OpticsParams` of `optics.wgsl` (48 bytes).
 #[repr(C)]

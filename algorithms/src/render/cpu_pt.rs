@@ -31,7 +31,7 @@ use std::time::Instant;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::{ms_since, Frame, FrameTimes, Renderer, RendererInfo};
+use super::{ms_since, Family, Frame, FrameTimes, Renderer, RendererInfo};
 use crate::camera::{Camera, Projection};
 use crate::error::{Error, Result};
 use crate::image::Image;
@@ -49,6 +49,12 @@ pub static CPU_PT: RendererInfo = RendererInfo {
                   (rayon), composited back to front",
     sorts: crate::sort::SORTS,
     integrators: &INTEGRATORS,
+    family: Family::Pt,
+    needs_gpu: false,
+    default_sort: "centroid",
+    table_sorts: &["*"],
+    default_integrator: "partial",
+    params: &[],
     make: |o| {
         Ok(Box::new(CpuPt::new(
             o.sort.as_deref().unwrap_or("centroid"),
@@ -126,12 +132,6 @@ impl CpuPt {
     /// `sort`: any name [`crate::sort::make`] knows (`bucket:N` included).
     pub fn new(sort: &str, integrator: &str) -> Result<CpuPt> {
         let sorter = crate::sort::make(sort)?;
-        if !INTEGRATORS.contains(&integrator) {
-            return Err(Error::Input(format!(
-                "cpu-pt: unknown integrator '{integrator}' (known: {})",
-                INTEGRATORS.join(", ")
-            )));
-        }
         Ok(CpuPt {
             name: "cpu-pt",
             sort_name: sort.to_string(),

@@ -3,7 +3,7 @@
 //! `docs/adding-a-renderer.md`: a variant is this one file plus one line in the registry.
 
 use super::cpu_pt::CpuPt;
-use super::RendererInfo;
+use super::{Family, RendererInfo};
 use crate::optics::INTEGRATORS;
 
 pub static CPU_PT_SLAB16: RendererInfo = RendererInfo {
@@ -11,6 +11,12 @@ pub static CPU_PT_SLAB16: RendererInfo = RendererInfo {
     description: "cpu-pt with PTINT's bucket sort in 16 depth slabs (unsorted within a slab)",
     sorts: &[],
     integrators: &INTEGRATORS,
+    family: Family::Pt,
+    needs_gpu: false,
+    default_sort: "",
+    table_sorts: &[],
+    default_integrator: "partial",
+    params: &[],
     make: |o| {
         let integrator = o.integrator.as_deref().unwrap_or("partial");
         Ok(Box::new(

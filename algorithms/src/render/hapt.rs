@@ -44,7 +44,8 @@
 use std::sync::Arc;
 use std::time::Instant;
 
-use super::{ms_since, Frame, FrameTimes, RenderOptions, Renderer, RendererInfo};
+use super::{ms_since, Family, Frame, FrameTimes, RenderOptions, Renderer, RendererInfo};
+use crate::plugin::ParamInfo;
 use crate::camera::{Camera, Projection};
 use crate::error::{Error, Result};
 use crate::gpu::optics::{OpticsTables, GPU_INTEGRATORS};
@@ -69,6 +70,39 @@ pub static HAPT: RendererInfo = RendererInfo {
                   dvr+iso, iso=v1,.., stream=N, timevarying=1",
     sorts: HAPT_SORTS,
     integrators: &GPU_INTEGRATORS,
+    family: Family::Pt,
+    needs_gpu: true,
+    default_sort: "gpu-radix",
+    // HAPT's own rows: GPU radix (for its GPU quicksort), GPU bitonic, a CPU sort, MPVONC.
+    table_sorts: &["gpu-radix", "gpu-bitonic", "centroid", "mpvonc"],
+    default_integrator: "partial",
+    params: &[
+        ParamInfo {
+            name: "mode",
+            default: "dvr",
+            doc: "dvr, iso or dvr+iso: volume, iso-surfaces, or both",
+        },
+        ParamInfo {
+            name: "iso",
+            default: "",
+            doc: "up to 4 iso values, comma-separated, in scalar units or P% of the field's range",
+        },
+        ParamInfo {
+            name: "iso_alpha",
+            default: "1",
+            doc: "opacity of the iso-surfaces, in [0, 1]",
+        },
+        ParamInfo {
+            name: "stream",
+            default: "",
+            doc: "N: stream the sorted tets in chunks of N (the mesh is not resident)",
+        },
+        ParamInfo {
+            name: "timevarying",
+            default: "0",
+            doc: "1: upload time step k mod n of the active field before frame k",
+        },
+    ],
     make: |o| Ok(Box::new(Hapt::new(o)?)),
 };
 
@@ -278,12 +312,6 @@ impl Hapt {
     pub fn new(o: &RenderOptions) -> Result<Hapt> {
         let (mode, iso, iso_alpha, stream, timevarying) = parse_params(o)?;
         let integrator_name = o.integrator.clone().unwrap_or_else(|| "partial".into());
-        if !GPU_INTEGRATORS.contains(&integrator_name.as_str()) {
-            return Err(Error::Input(format!(
-                "hapt: unknown integrator '{integrator_name}' (known: {})",
-                GPU_INTEGRATORS.join(", ")
-            )));
-        }
         let mut sort_name = o.sort.clone().unwrap_or_else(|| "gpu-radix".into());
         let sort = match GpuSortKind::parse(&sort_name) {
             Some(_) if stream.is_some() => {

@@ -21,7 +21,8 @@
 
 use std::time::Instant;
 
-use super::{ms_since, Frame, FrameTimes, RenderOptions, Renderer, RendererInfo};
+use super::{ms_since, Family, Frame, FrameTimes, RenderOptions, Renderer, RendererInfo};
+use crate::plugin::ParamInfo;
 use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::jbu::{low_camera, Method, Params, Upsampler};
@@ -36,6 +37,34 @@ pub static JBU: RendererInfo = RendererInfo {
                   options ,method=bilateral|linear|nearest ,k=1..4 ,sigma=0.01 ,r=2",
     sorts: &[],
     integrators: &["as <renderer>"],
+    family: Family::Wrapper,
+    needs_gpu: false,
+    default_sort: "",
+    table_sorts: &[],
+    default_integrator: "as <renderer>",
+    // Given in the name (`jbu:raycast@128,k=2`); `--param` keys go to the inner renderer.
+    params: &[
+        ParamInfo {
+            name: "method",
+            default: "bilateral",
+            doc: "bilateral, linear or nearest",
+        },
+        ParamInfo {
+            name: "k",
+            default: "2",
+            doc: "depth layers of the bilateral filter, 1..4",
+        },
+        ParamInfo {
+            name: "sigma",
+            default: "0.01",
+            doc: "range sigma of the bilateral weights",
+        },
+        ParamInfo {
+            name: "r",
+            default: "2",
+            doc: "filter radius in low-res pixels",
+        },
+    ],
     make: |_| {
         Err(Error::Input(
             "jbu: give the inner renderer and low size, e.g. jbu:raycast@128".into(),

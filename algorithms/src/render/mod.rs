@@ -10,6 +10,7 @@ use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::image::Image;
 use crate::mesh::Mesh;
+use crate::plugin::{check_params, did_you_mean, ParamInfo};
 use crate::tf::TransferFunction;
 
 /// Options a renderer is made with.
@@ -67,14 +68,52 @@ pub trait Renderer: Send {
     }
 }
 
-/// A registry entry.
+/// What kind of algorithm a renderer is; the papers' tables pick their renderers by family.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Family {
+    /// Projected tetrahedra (Shirley–Tuchman; PTINT, HAPT and their variants).
+    Pt,
+    /// Ray casting through the mesh (HARC's family; the exact reference).
+    RayCasting,
+    /// Wraps another renderer (`jbu:<renderer>@<size>`).
+    Wrapper,
+    /// Runs another program (e.g. VTK's mappers); measured, not part of the papers' families.
+    External,
+}
+
+impl Family {
+    pub fn name(self) -> &'static str {
+        match self {
+            Family::Pt => "projected tetrahedra",
+            Family::RayCasting => "ray casting",
+            Family::Wrapper => "wrapper",
+            Family::External => "external",
+        }
+    }
+}
+
+/// A renderer's registry entry, declared in the renderer's own file.
 pub struct RendererInfo {
     pub name: &'static str,
     pub description: &'static str,
+    pub family: Family,
+    /// Whether it runs on a GPU (wgpu): it needs an adapter, and on a software one it is slow.
+    pub needs_gpu: bool,
     /// Sorts it accepts (empty: it needs none).
     pub sorts: &'static [&'static str],
+    /// The sort it uses when none is given ("" when it takes none).
+    pub default_sort: &'static str,
+    /// The sorts the papers' algorithm tables (PTINT Table 2, HAPT Tables 3 and 4) measure it
+    /// with: `["*"]` every sort but the lattice-only ones, `[]` only its default.
+    pub table_sorts: &'static [&'static str],
     /// Integrators it accepts.
     pub integrators: &'static [&'static str],
+    /// The integrator it uses when none is given.
+    pub default_integrator: &'static str,
+    /// The `--param KEY=VALUE` keys it takes, with their defaults and docs; any other key is
+    /// refused before the renderer is made.
+    pub params: &'static [ParamInfo],
+    /// Makes it; the options have been checked against this entry.
     pub make: fn(&RenderOptions) -> Result<Box<dyn Renderer>>,
 }
 
@@ -117,9 +156,11 @@ pub fn info(name: &str) -> Result<&'static RendererInfo> {
         .copied()
         .find(|r| r.name == name)
         .ok_or_else(|| {
+            let names = names();
             Error::Input(format!(
-                "unknown renderer '{name}' (known: {})",
-                names().join(", ")
+                "unknown renderer '{name}' (known: {}){}",
+                names.join(", "),
+                did_you_mean(name, &names)
             ))
         })
 }
@@ -129,38 +170,92 @@ pub fn names() -> Vec<&'static str> {
     REGISTRY.iter().map(|r| r.name).collect()
 }
 
-/// Makes a renderer by name, checking the sort and integrator names against what it accepts.
+/// The registered renderers of one family, in registry order (wrappers' pattern entry left out).
+pub fn family(f: Family) -> Vec<&'static RendererInfo> {
+    REGISTRY
+        .iter()
+        .copied()
+        .filter(|r| r.family == f && !is_wrapper(r.name))
+        .collect()
+}
+
+/// Makes a renderer by name. Everything is checked here, once, against its registry entry:
+/// the sort (and that it exists), the integrator, and every `--param` key (unknown or repeated
+/// keys are refused). Absent sort and integrator are filled in with the entry's defaults.
 pub fn make(name: &str, opts: &RenderOptions) -> Result<Box<dyn Renderer>> {
     if is_wrapper(name) {
         return jbu::make(name, opts);
     }
     let info = info(name)?;
+    check_params(&format!("renderer '{name}'"), info.params, &opts.params)?;
+    let mut opts = opts.clone();
     if let Some(s) = &opts.sort {
         // `bucket:16` is the `bucket` sort with a parameter.
         let base = s.split(':').next().unwrap_or(s);
         if !info.sorts.contains(&base) {
             return Err(Error::Input(format!(
-                "renderer '{name}' does not take sort '{s}' (it takes: {})",
+                "renderer '{name}' does not take sort '{s}' (it takes: {}){}",
                 if info.sorts.is_empty() {
                     "none".to_string()
                 } else {
                     info.sorts.join(", ")
-                }
+                },
+                did_you_mean(base, info.sorts)
             )));
         }
+    } else if !info.default_sort.is_empty() {
+        opts.sort = Some(info.default_sort.to_string());
     }
-    if let Some(i) = &opts.integrator {
-        if !info.integrators.contains(&i.as_str()) {
-            return Err(Error::Input(format!(
-                "renderer '{name}' does not take integrator '{i}' (it takes: {})",
-                info.integrators.join(", ")
-            )));
-        }
+    let integ = opts
+        .integrator
+        .get_or_insert_with(|| info.default_integrator.to_string());
+    if !info.integrators.contains(&integ.as_str()) {
+        // An unknown name gets the list of all integrators; a known one the renderer's.
+        crate::optics::info(integ)?;
+        return Err(Error::Input(format!(
+            "renderer '{name}' does not take integrator '{integ}' (it takes: {})",
+            info.integrators.join(", ")
+        )));
     }
-    (info.make)(opts)
+    (info.make)(&opts)
 }
 
 /// Milliseconds since `t`.
 pub fn ms_since(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_entry_is_complete_and_refuses_unknown_params() {
+        for r in REGISTRY.iter().filter(|r| !is_wrapper(r.name)) {
+            assert!(r.integrators.contains(&r.default_integrator), "{}", r.name);
+            assert!(
+                r.default_sort.is_empty() == r.sorts.is_empty()
+                    && (r.default_sort.is_empty() || r.sorts.contains(&r.default_sort)),
+                "{}",
+                r.name
+            );
+            for s in r.table_sorts {
+                assert!(*s == "*" || r.sorts.contains(s), "{}: {s}", r.name);
+            }
+            let o = RenderOptions {
+                params: vec![("bogus".into(), "1".into())],
+                ..Default::default()
+            };
+            let e = make(r.name, &o).err().expect("refused").to_string();
+            assert!(e.contains("unknown parameter 'bogus'"), "{e}");
+        }
+        for i in crate::optics::REGISTRY {
+            assert_eq!(
+                crate::gpu::optics::GPU_INTEGRATORS.contains(&i.name),
+                i.on_gpu,
+                "{}",
+                i.name
+            );
+        }
+    }
 }

@@ -32,7 +32,7 @@
 use std::sync::Arc;
 use std::time::Instant;
 
-use super::{ms_since, Frame, FrameTimes, Renderer, RendererInfo};
+use super::{ms_since, Family, Frame, FrameTimes, Renderer, RendererInfo};
 use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::gpu::optics::{OpticsTables, GPU_INTEGRATORS};
@@ -50,6 +50,13 @@ pub static PTINT: RendererInfo = RendererInfo {
                   CPU sort, fans drawn with per-fragment integration (wgpu)",
     sorts: crate::sort::SORTS,
     integrators: &GPU_INTEGRATORS,
+    family: Family::Pt,
+    needs_gpu: true,
+    default_sort: "centroid",
+    // Its CPU sort variants are cpu-pt's rows; on a software GPU each extra row costs seconds.
+    table_sorts: &["centroid"],
+    default_integrator: "partial",
+    params: &[],
     make: |o| {
         Ok(Box::new(Ptint::new(
             o.sort.as_deref().unwrap_or("centroid"),
@@ -111,12 +118,6 @@ impl Ptint {
     /// `preint`.
     pub fn new(sort: &str, integrator: &str) -> Result<Ptint> {
         let sorter = crate::sort::make(sort)?;
-        if !GPU_INTEGRATORS.contains(&integrator) {
-            return Err(Error::Input(format!(
-                "ptint: unknown integrator '{integrator}' (it takes: {})",
-                GPU_INTEGRATORS.join(", ")
-            )));
-        }
         Ok(Ptint {
             sort_name: sort.to_string(),
             integrator_name: integrator.to_string(),

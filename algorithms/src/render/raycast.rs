@@ -14,16 +14,17 @@
 //! The same products give the barycentric coordinates of the crossing point on the face, from
 //! which the depth and scalar are interpolated; the exit of one cell is the entry of the next.
 
+use std::cell::Cell;
 use std::time::Instant;
 
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::{ms_since, Frame, FrameTimes, RenderOptions, Renderer, RendererInfo};
+use super::{ms_since, Family, Frame, FrameTimes, RenderOptions, Renderer, RendererInfo};
 use crate::camera::{Camera, Ray};
 use crate::error::{Error, Result};
 use crate::image::Image;
-use crate::mesh::{Mesh, BOUNDARY, FACE_VERTS};
+use crate::mesh::{signed_volume6, Mesh, BOUNDARY, FACE_VERTS};
 use crate::optics::{composite_under, integrator, Integrator, Segment, INTEGRATORS};
 use crate::tf::TransferFunction;
 
@@ -33,6 +34,12 @@ pub static RAYCAST: RendererInfo = RendererInfo {
     description: "CPU ray caster walking cell to cell through face adjacency (rayon over rows)",
     sorts: &[],
     integrators: &INTEGRATORS,
+    family: Family::RayCasting,
+    needs_gpu: false,
+    default_sort: "",
+    table_sorts: &[],
+    default_integrator: "partial",
+    params: &[],
     make: |o| {
         Ok(Box::new(RayCaster::new(
             o.integrator.as_deref().unwrap_or("partial"),
@@ -47,6 +54,12 @@ pub static REFERENCE: RendererInfo = RendererInfo {
     description: "the exact reference: raycast with the exact integrator, f64 throughout",
     sorts: &[],
     integrators: &["exact"],
+    family: Family::RayCasting,
+    needs_gpu: false,
+    default_sort: "",
+    table_sorts: &[],
+    default_integrator: "exact",
+    params: &[],
     make: |_: &RenderOptions| Ok(Box::new(RayCaster::new("exact", "reference"))),
 };
 
@@ -66,6 +79,11 @@ struct Prepared {
     s: Vec<f64>,
     /// Orientation of each tet: +1, −1 (0 never stored: flat tets take +1 and are retried).
     sign: Vec<i8>,
+    /// The walk's cell links: per tet and face, `4 · neighbour + the neighbour's face back to
+    /// this tet`, or [`BOUNDARY`] (16 B/tet; the mesh's adjacency is not kept beside it).
+    next: Vec<[u32; 4]>,
+    /// Largest |coordinate| of `pos`, for the predicate filter's static error bound.
+    max_abs: f64,
     bvh: Bvh,
     integrator: Box<dyn Integrator>,
     /// 1 / L: world length to optical length.
@@ -86,13 +104,19 @@ impl RayCaster {
 }
 
 /// Counters of a frame: cell steps, rays that hit the step limit, walks that found no
-/// consistent exit face (flat cells), and re-entries through the boundary.
+/// consistent exit face (flat cells), re-entries through the boundary, and rays that cross the
+/// boundary without entering it.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct RayStats {
     pub steps: u64,
     pub lost: u64,
     pub fallbacks: u64,
     pub reentries: u64,
+    /// Rays that cross the mesh boundary (their pixel centre is covered by the projected
+    /// boundary) but found no face to enter through: a hole. 0 for a watertight entry test.
+    pub missed: u64,
+    /// Edge predicates the f64 filter could not decide, computed by the exact orient3d.
+    pub filter_fallbacks: u64,
 }
 
 impl std::ops::AddAssign for RayStats {
@@ -101,6 +125,8 @@ impl std::ops::AddAssign for RayStats {
         self.lost += o.lost;
         self.fallbacks += o.fallbacks;
         self.reentries += o.reentries;
+        self.missed += o.missed;
+        self.filter_fallbacks += o.filter_fallbacks;
     }
 }
 
@@ -120,17 +146,57 @@ impl Renderer for RayCaster {
         let map = tf.scalar_map(mesh.scalar_range());
         let pos: Vec<DVec3> = mesh.positions().par_iter().map(|p| *p - c).collect();
         let s: Vec<f64> = mesh.scalars().par_iter().map(|&v| map.s(v)).collect();
-        let sign: Vec<i8> = mesh
-            .volumes()
-            .par_iter()
-            .map(|&v| if v < 0.0 { -1 } else { 1 })
+        // The sign of `Mesh::volumes` (the same expression), without caching 8 B/tet there.
+        let sign: Vec<i8> = (0..mesh.num_tets())
+            .into_par_iter()
+            .map(|t| {
+                let v = signed_volume6(mesh.tet_points(t).map(|p| p - c)) / 6.0;
+                if v < 0.0 {
+                    -1
+                } else {
+                    1
+                }
+            })
             .collect();
-        mesh.adjacency();
-        let bvh = Bvh::build(mesh, &pos);
+        let (next, boundary) = {
+            let adj = mesh.adjacency_transient();
+            let nb = &adj.neighbors;
+            let next: Vec<[u32; 4]> = nb
+                .par_iter()
+                .enumerate()
+                .map(|(t, n)| {
+                    n.map(|x| {
+                        if x == BOUNDARY {
+                            return BOUNDARY;
+                        }
+                        // Adjacency is symmetric by construction; a break is treated as
+                        // boundary by the walk.
+                        match (0..4).find(|&f| nb[x as usize][f] == t as u32) {
+                            Some(back) => 4 * x + back as u32,
+                            None => BOUNDARY,
+                        }
+                    })
+                })
+                .collect();
+            // The boundary faces in `Mesh::boundary_faces` order.
+            let boundary: Vec<u32> = (0..nb.len())
+                .flat_map(|t| (0..4).map(move |f| (t, f)))
+                .filter(|&(t, f)| nb[t][f] == BOUNDARY)
+                .map(|(t, f)| (4 * t + f) as u32)
+                .collect();
+            (next, boundary)
+        };
+        let max_abs = pos
+            .iter()
+            .map(|p| p.abs().max_element())
+            .fold(0.0, f64::max);
+        let bvh = Bvh::build(mesh, &pos, boundary);
         self.state = Some(Prepared {
             pos,
             s,
             sign,
+            next,
+            max_abs,
             bvh,
             integrator,
             inv_l: if l > 0.0 { 1.0 / l } else { 0.0 },
@@ -162,6 +228,8 @@ impl Renderer for RayCaster {
                 ("lost_rays", stats.lost as f64),
                 ("walk_fallbacks", stats.fallbacks as f64),
                 ("reentries", stats.reentries as f64),
+                ("missed_rays", stats.missed as f64),
+                ("filter_fallbacks", stats.filter_fallbacks as f64),
             ],
         })
     }
@@ -207,7 +275,16 @@ struct RayCtx {
     /// d × r and d × u: first- and second-order terms of the perturbed products.
     d_r: DVec3,
     d_u: DVec3,
+    /// `q − o`, the column every orient3d of this ray shares, as orient3d computes it.
+    c: DVec3,
+    /// Static error bound of the f64 filter for this ray (see [`RayCtx::orient`]).
+    bound: f64,
+    /// Predicates the filter left to the exact orient3d.
+    fallbacks: Cell<u64>,
 }
+
+/// Shewchuk's error-bound coefficient of orient3d's first stage, `(7 + 56ε)ε`, ε = 2⁻⁵³.
+const O3D_ERRBOUND_A: f64 = (7.0 + 56.0 * f64::EPSILON / 2.0) * f64::EPSILON / 2.0;
 
 #[inline]
 fn coord(p: DVec3) -> robust::Coord3D<f64> {
@@ -219,14 +296,51 @@ fn coord(p: DVec3) -> robust::Coord3D<f64> {
 }
 
 impl RayCtx {
-    fn new(ray: &Ray, cam: &Camera) -> RayCtx {
+    /// `max_abs` bounds every vertex coordinate the ray is tested against.
+    fn new(ray: &Ray, cam: &Camera, max_abs: f64) -> RayCtx {
+        let (o, q) = (ray.origin, ray.origin + ray.dir);
+        let c = q - o;
+        // |u − o|, |v − o| ≤ a and |q − o| ≤ cm per coordinate, so orient3d's permanent is at
+        // most 6·a²·cm (three terms of two products each) and its dynamic bound
+        // O3D_ERRBOUND_A·permanent at most this static one (the factor covers the rounding
+        // of the bound's own arithmetic, ~10 ε).
+        let a = max_abs + o.abs().max_element();
+        let cm = c.abs().max_element();
         RayCtx {
-            o: ray.origin,
+            o,
             d: ray.dir,
-            q: ray.origin + ray.dir,
+            q,
             d_r: ray.dir.cross(cam.right),
             d_u: ray.dir.cross(cam.up),
+            c,
+            bound: O3D_ERRBOUND_A * 6.0 * a * a * cm * (1.0 + 1e-12),
+            fallbacks: Cell::new(0),
         }
+    }
+
+    /// `orient3d(u, v, q, o) = det[u − o, v − o, q − o]`, filtered: orient3d's own first stage
+    /// (the same expression, so the same bits) is accepted when it exceeds the static bound of
+    /// this ray, which is never below orient3d's dynamic one — so the result is bit for bit
+    /// what `robust::orient3d` returns, without its permanent and call. Otherwise (the
+    /// filter cannot decide the sign) the exact adaptive predicate is called and counted.
+    #[inline(always)]
+    fn orient(&self, pu: DVec3, pv: DVec3) -> f64 {
+        let (o, c) = (self.o, self.c);
+        let (adx, ady, adz) = (pu.x - o.x, pu.y - o.y, pu.z - o.z);
+        let (bdx, bdy, bdz) = (pv.x - o.x, pv.y - o.y, pv.z - o.z);
+        let (cdx, cdy, cdz) = (c.x, c.y, c.z);
+        let bdxcdy = bdx * cdy;
+        let cdxbdy = cdx * bdy;
+        let cdxady = cdx * ady;
+        let adxcdy = adx * cdy;
+        let adxbdy = adx * bdy;
+        let bdxady = bdx * ady;
+        let det = adz * (bdxcdy - cdxbdy) + bdz * (cdxady - adxcdy) + cdz * (adxbdy - bdxady);
+        if det > self.bound || -det > self.bound {
+            return det;
+        }
+        self.fallbacks.set(self.fallbacks.get() + 1);
+        robust::orient3d(coord(pu), coord(pv), coord(self.q), coord(self.o))
     }
 
     /// Plücker product of the ray with the edge from `u` to `v` (callers pass the lower global
@@ -235,7 +349,7 @@ impl RayCtx {
     /// Returns the value and its sign after the symbolic perturbation.
     #[inline]
     fn side(&self, pu: DVec3, pv: DVec3) -> (f64, bool) {
-        let p = robust::orient3d(coord(pu), coord(pv), coord(self.q), coord(self.o));
+        let p = self.orient(pu, pv);
         if p != 0.0 {
             return (p, p > 0.0);
         }
@@ -411,8 +525,7 @@ impl Prepared {
 
     /// Casts one ray; returns the composited pixel and the ray's counters.
     fn cast(&self, mesh: &Mesh, cam: &Camera, ray: &Ray) -> (Segment, RayStats) {
-        let ctx = RayCtx::new(ray, cam);
-        let adj = &mesh.adjacency().neighbors;
+        let ctx = RayCtx::new(ray, cam, self.max_abs);
         let mut acc = Segment::default();
         let mut stats = RayStats::default();
         let mut t_min = f64::NEG_INFINITY;
@@ -444,28 +557,101 @@ impl Prepared {
                         break 'rays;
                     }
                 }
-                let nb = adj[tet][x.face];
+                let nb = self.next[tet][x.face];
                 if nb == BOUNDARY {
                     t_min = t_out;
                     exclude = (4 * tet + x.face) as u32;
                     break;
                 }
-                let nbu = nb as usize;
-                let back = (0..4).find(|&f| adj[nbu][f] == tet as u32);
-                let Some(back) = back else {
-                    // Adjacency is symmetric by construction; treat a break as boundary.
-                    t_min = t_out;
-                    exclude = (4 * tet + x.face) as u32;
-                    break;
-                };
-                tet = nbu;
-                fin = back;
+                tet = nb as usize / 4;
+                fin = nb as usize % 4;
                 t_in = t_out;
                 s_in = x.s;
             }
         }
+        if first && self.bvh.any_crossing(self, mesh.tets(), &ctx) {
+            stats.missed += 1;
+        }
+        stats.filter_fallbacks = ctx.fallbacks.get();
         (acc, stats)
     }
+}
+
+/// For each boundary face `bfs` of `mesh` (4·tet + face), whether its
+/// [`FACE_VERTS`] circulation points out of the mesh.
+///
+/// A face of a tet with a nonzero exact orientation (Shewchuk's orient3d on the centred
+/// positions the walk uses) points out when the tet is positive. A zero-volume tet has no
+/// orientation of its own — blunt has 77, some with two boundary faces, and taking them as
+/// positive turned their entry faces into exit faces (the holes of issue 13). Such a face takes
+/// the orientation that makes the boundary surface consistent: across a boundary edge shared by
+/// exactly two boundary faces, the two circulations run the edge in opposite directions. It is
+/// propagated breadth-first from the oriented faces; a connected patch of flat faces with no
+/// oriented neighbour keeps "positive".
+fn boundary_outward(mesh: &Mesh, pos: &[DVec3], bfs: &[u32]) -> Vec<bool> {
+    let tets = mesh.tets();
+    // 1 = out (FACE_VERTS circulation outward), 0 = in, 2 = undecided.
+    let mut out: Vec<u8> = bfs
+        .par_iter()
+        .map(|&bf| {
+            let t = tets[bf as usize / 4].map(|v| coord(pos[v as usize]));
+            // orient3d(a, b, c, d) = det[a − d, b − d, c − d] = −det(b − a, c − a, d − a).
+            let o = robust::orient3d(t[0], t[1], t[2], t[3]);
+            if o < 0.0 {
+                1
+            } else if o > 0.0 {
+                0
+            } else {
+                2
+            }
+        })
+        .collect();
+    if out.iter().all(|&o| o != 2) {
+        return out.into_iter().map(|o| o == 1).collect();
+    }
+    // Boundary edges: (low id, high id, face index, runs low → high in the circulation).
+    let mut edges: Vec<(u32, u32, u32, bool)> = Vec::with_capacity(3 * bfs.len());
+    for (i, &bf) in bfs.iter().enumerate() {
+        let tri = mesh.face_vertices(bf as usize / 4, bf as usize % 4);
+        for k in 0..3 {
+            let (a, b) = (tri[k], tri[(k + 1) % 3]);
+            edges.push((a.min(b), a.max(b), i as u32, a < b));
+        }
+    }
+    edges.par_sort_unstable();
+    // Neighbours across manifold boundary edges (exactly two faces): (other face, whether this
+    // face's circulation runs the edge low → high, whether the other's does).
+    let mut pairs: Vec<Vec<(u32, bool, bool)>> = vec![Vec::new(); bfs.len()];
+    let mut i = 0;
+    while i < edges.len() {
+        let mut j = i + 1;
+        while j < edges.len() && edges[j].0 == edges[i].0 && edges[j].1 == edges[i].1 {
+            j += 1;
+        }
+        if j - i == 2 {
+            let (x, y) = (edges[i], edges[i + 1]);
+            pairs[x.2 as usize].push((y.2, x.3, y.3));
+            pairs[y.2 as usize].push((x.2, y.3, x.3));
+        }
+        i = j;
+    }
+    let mut queue: std::collections::VecDeque<u32> = (0..bfs.len() as u32)
+        .filter(|&f| out[f as usize] != 2)
+        .collect();
+    while let Some(f) = queue.pop_front() {
+        let of = out[f as usize] == 1;
+        for &(g, df, dg) in &pairs[f as usize] {
+            if out[g as usize] != 2 {
+                continue;
+            }
+            // Oriented outwards, f runs the edge low → high iff df == of; g must run it the
+            // other way: (dg == og) == !(df == of).
+            let og = dg != (df == of);
+            out[g as usize] = og as u8;
+            queue.push_back(g);
+        }
+    }
+    out.into_iter().map(|o| o != 0).collect()
 }
 
 /// A bounding-volume hierarchy over the boundary faces, for the first entry of a ray at or
@@ -474,7 +660,11 @@ struct Bvh {
     nodes: Vec<BvhNode>,
     /// Boundary faces as 4·tet + face, in leaf order.
     faces: Vec<u32>,
+    /// Per face in leaf order: the sign of the edge products of a ray entering the mesh through
+    /// it (the opposite of the outward circulation's).
+    entering: Vec<bool>,
 }
+
 
 #[derive(Clone, Copy)]
 struct BvhNode {
@@ -488,8 +678,9 @@ struct BvhNode {
 const LEAF_SIZE: usize = 4;
 
 impl Bvh {
-    fn build(mesh: &Mesh, pos: &[DVec3]) -> Bvh {
-        let mut faces: Vec<u32> = mesh.boundary_faces().to_vec();
+    /// `boundary`: the boundary faces as 4·tet + face, ascending.
+    fn build(mesh: &Mesh, pos: &[DVec3], boundary: Vec<u32>) -> Bvh {
+        let mut faces: Vec<u32> = boundary.clone();
         let tri = |bf: u32| mesh.face_vertices(bf as usize / 4, bf as usize % 4);
         let centroid = |bf: u32| {
             let v = tri(bf);
@@ -544,7 +735,16 @@ impl Bvh {
             stack.push((left + 1, mid, b));
             stack.push((left, a, mid));
         }
-        Bvh { nodes, faces }
+        let outward = boundary_outward(mesh, pos, &boundary);
+        let entering = faces
+            .iter()
+            .map(|bf| boundary.binary_search(bf).is_ok_and(|i| !outward[i]))
+            .collect();
+        Bvh {
+            nodes,
+            faces,
+            entering,
+        }
     }
 
     /// Slab test: the parameter interval where the ray is inside the box, clipped to
@@ -602,14 +802,14 @@ impl Bvh {
                 continue;
             }
             if n.count > 0 {
-                for &bf in &self.faces[n.start as usize..(n.start + n.count) as usize] {
+                let leaf = n.start as usize..(n.start + n.count) as usize;
+                for (&bf, &entering) in self.faces[leaf.clone()].iter().zip(&self.entering[leaf])
+                {
                     if bf == exclude {
                         continue;
                     }
                     let (t, f) = (bf as usize / 4, bf as usize % 4);
                     let tri = FACE_VERTS[f].map(|k| tets[t][k]);
-                    // Entering: the products have the sign opposite to leaving.
-                    let entering = st.sign[t] <= 0;
                     if let Some((tt, s)) = st.cross_face(ray, tri, entering) {
                         if tt >= t_min && tt < best_t {
                             best_t = tt;
@@ -624,5 +824,38 @@ impl Bvh {
             }
         }
         best
+    }
+
+    /// Whether the ray crosses any boundary face, in either direction (the same edge
+    /// predicates as the walk): a ray that does but enters none is a hole.
+    fn any_crossing(&self, st: &Prepared, tets: &[[u32; 4]], ray: &RayCtx) -> bool {
+        if self.faces.is_empty() {
+            return false;
+        }
+        let mut stack = [0u32; 64];
+        let mut sp = 1usize;
+        while sp > 0 {
+            sp -= 1;
+            let n = &self.nodes[stack[sp] as usize];
+            if !Self::hit_box(n, ray, f64::NEG_INFINITY, f64::INFINITY) {
+                continue;
+            }
+            if n.count > 0 {
+                for &bf in &self.faces[n.start as usize..(n.start + n.count) as usize] {
+                    let (t, f) = (bf as usize / 4, bf as usize % 4);
+                    let tri = FACE_VERTS[f].map(|k| tets[t][k]);
+                    if st.cross_face(ray, tri, true).is_some()
+                        || st.cross_face(ray, tri, false).is_some()
+                    {
+                        return true;
+                    }
+                }
+            } else if sp + 2 <= stack.len() {
+                stack[sp] = n.start + 1;
+                stack[sp + 1] = n.start;
+                sp += 2;
+            }
+        }
+        false
     }
 }

@@ -7,9 +7,10 @@
 //! are emitted back to front and the tets of one slab in index order (a counting sort, O(n)).
 //! With N = 1 the order is index order.
 
-use super::{centroids, check_prepared, f32x3, KeyFn, Sort, SortStats};
+use super::{centroids, check_prepared, f32x3, KeyFn, Sort, SortInfo, SortStats};
 use crate::camera::Camera;
-use crate::error::Result;
+use crate::error::{Error, Result};
+use crate::plugin::ParamInfo;
 use crate::mesh::Mesh;
 
 #[derive(Debug)]
@@ -43,6 +44,35 @@ pub(crate) fn slab(k: f32, lo: f32, hi: f32, slabs: usize) -> usize {
         0
     }
 }
+
+/// `bucket` and `bucket:N`.
+pub const BUCKET: SortInfo = SortInfo {
+    name: "bucket",
+    description: "PTINT's N depth slabs, index order inside a slab (approximate), O(n)",
+    params: &[ParamInfo {
+        name: "N",
+        default: "20",
+        doc: "depth slabs, 1..=4096, given as bucket:N",
+    }],
+    lattice_only: false,
+    make: |arg| {
+        let slabs = match arg {
+            None => super::DEFAULT_SLABS,
+            Some(n) => n
+                .trim()
+                .parse::<usize>()
+                .ok()
+                .filter(|s| (1..=super::MAX_SLABS).contains(s))
+                .ok_or_else(|| {
+                    Error::Input(format!(
+                        "sort 'bucket:{n}': the slab count must be an integer in 1..={}",
+                        super::MAX_SLABS
+                    ))
+                })?,
+        };
+        Ok(Box::new(BucketSort::new(slabs)))
+    },
+};
 
 impl Sort for BucketSort {
     fn name(&self) -> String {

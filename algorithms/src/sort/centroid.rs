@@ -2,7 +2,7 @@
 
 use rayon::prelude::*;
 
-use super::{centroids, check_prepared, KeyFn, Sort, SortStats};
+use super::{centroids, check_prepared, KeyFn, Sort, SortInfo, SortStats};
 use crate::camera::Camera;
 use crate::error::Result;
 use crate::mesh::Mesh;
@@ -24,6 +24,24 @@ impl CentroidSort {
         }
     }
 }
+
+/// `centroid`: one thread.
+pub const CENTROID: SortInfo = SortInfo {
+    name: "centroid",
+    description: "centroid depth, sort_unstable_by on one thread, O(n log n)",
+    params: &[],
+    lattice_only: false,
+    make: |_| Ok(Box::new(CentroidSort::new(false))),
+};
+
+/// `centroid-par`: the same order with rayon.
+pub const CENTROID_PAR: SortInfo = SortInfo {
+    name: "centroid-par",
+    description: "the centroid order with rayon's par_sort_unstable_by, O(n log n) / threads",
+    params: &[],
+    lattice_only: false,
+    make: |_| Ok(Box::new(CentroidSort::new(true))),
+};
 
 /// Farthest first, then by index: the order every centroid sort gives.
 #[inline]

@@ -79,7 +79,7 @@
 //! contract allows a sort that was given a transfer function to leave out tets that contribute
 //! nothing), and the image is the same.
 
-use super::{Sort, SortStats};
+use super::{Sort, SortInfo, SortStats};
 use crate::camera::{Camera, Projection};
 use crate::error::{Error, Result};
 use crate::lattice::{bcc_axis_offset, Lattice, LatticeKind};
@@ -213,6 +213,26 @@ fn step_table(entries: &[Entry], g: [f64; 3], shift: impl Fn(&Entry) -> [f64; 3]
     });
     idx
 }
+
+/// `bcc-implicit`.
+pub const BCC_IMPLICIT: SortInfo = SortInfo {
+    name: "bcc-implicit",
+    description: "lattice meshes only (bcc, cc5, cc6), ortho: back-to-front traversal of the \
+                  lattice, no sort, O(n)",
+    params: &[],
+    lattice_only: true,
+    make: |_| Ok(Box::new(LatticeSort::new(false))),
+};
+
+/// `bcc-implicit-skip`.
+pub const BCC_IMPLICIT_SKIP: SortInfo = SortInfo {
+    name: "bcc-implicit-skip",
+    description: "bcc-implicit leaving out tets transparent under the transfer function \
+                  (empty-space skipping), O(visible)",
+    params: &[],
+    lattice_only: true,
+    make: |_| Ok(Box::new(LatticeSort::new(true))),
+};
 
 impl Sort for LatticeSort {
     fn name(&self) -> String {

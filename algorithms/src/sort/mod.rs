@@ -25,14 +25,8 @@
 use crate::camera::{Camera, Projection};
 use crate::error::{Error, Result};
 use crate::mesh::{Mesh, BOUNDARY};
+use crate::plugin::{did_you_mean, ParamInfo};
 use crate::tf::TransferFunction;
-
-mod bucket;
-mod centroid;
-pub mod lattice;
-mod mpvonc;
-mod radix;
-mod xmpvo;
 
 pub use bucket::BucketSort;
 pub use centroid::CentroidSort;
@@ -40,6 +34,43 @@ pub use lattice::LatticeSort;
 pub use mpvonc::Mpvonc;
 pub use radix::RadixSort;
 pub use xmpvo::Xmpvo;
+
+/// A sort's registry entry: declared in the sort's own file, listed once in [`REGISTRY`].
+pub struct SortInfo {
+    pub name: &'static str,
+    pub description: &'static str,
+    /// The parameter after `:` in the name (`bucket:16`), if the sort takes one.
+    pub params: &'static [ParamInfo],
+    /// Only for meshes built on a lattice (`datasets-gen` `bcc`, `cc5`, `cc6`); an
+    /// experiment's `sorts = ["*"]` leaves these out.
+    pub lattice_only: bool,
+    /// Makes the sort; the argument is the text after `:` in the name, if any.
+    pub make: fn(Option<&str>) -> Result<Box<dyn Sort>>,
+}
+
+/// Declares each sort module and lists its entries, so that the registry is the one place
+/// sorts are known by.
+macro_rules! registry {
+    ($($(#[$m:meta])* $vis:vis $module:ident => [$($entry:ident),+],)+) => {
+        $($(#[$m])* $vis mod $module;)+
+        /// Every sort, in `tetbench list` order.
+        pub static REGISTRY: &[&SortInfo] = &[$($(&$module::$entry,)+)+];
+        /// The names of the sorts, in registry order (for renderer entries, which list the
+        /// sorts they take).
+        pub const CPU_SORTS: &[&str] = &[$($($module::$entry.name,)+)+];
+    };
+}
+
+// The registry: adding a sort is one new file in this directory (with its `SortInfo`) and one
+// line here.
+registry! {
+    centroid => [CENTROID, CENTROID_PAR],
+    radix => [CENTROID_RADIX],
+    bucket => [BUCKET],
+    mpvonc => [MPVONC],
+    xmpvo => [XMPVO],
+    pub lattice => [BCC_IMPLICIT, BCC_IMPLICIT_SKIP],
+}
 
 /// What a sort reports about one frame.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -82,20 +113,8 @@ pub trait Sort: Send {
     fn sort(&mut self, mesh: &Mesh, camera: &Camera, order: &mut Vec<u32>) -> Result<SortStats>;
 }
 
-/// The sorts known by name. `bucket` also takes a slab count, `bucket:N`.
-pub const SORTS: &[&str] = &CPU_SORTS;
-
-/// [`SORTS`] as an array, for renderers that list other sorts beside them ([`with_sorts`]).
-pub const CPU_SORTS: [&str; 8] = [
-    "centroid",
-    "centroid-par",
-    "centroid-radix",
-    "bucket",
-    "mpvonc",
-    "xmpvo",
-    "bcc-implicit",
-    "bcc-implicit-skip",
-];
+/// The sorts known by name (all CPU sorts; `bucket` also takes a slab count, `bucket:N`).
+pub const SORTS: &[&str] = CPU_SORTS;
 
 /// `own` followed by every CPU sort: the sort list of a renderer that has sorts of its own
 /// (e.g. `hapt`'s GPU sorts) and takes every CPU sort too, kept in step with [`CPU_SORTS`].
@@ -112,46 +131,39 @@ pub const fn with_sorts<const A: usize, const N: usize>(
     out
 }
 
-/// The sorts that only apply to meshes built on a lattice (`datasets-gen` `bcc`, `cc5`, `cc6`);
-/// an experiment's `sorts = ["*"]` leaves them out.
-pub const LATTICE_SORTS: &[&str] = &["bcc-implicit", "bcc-implicit-skip"];
-
 /// Default slab count of `bucket` (PTINT: "around 20").
 pub const DEFAULT_SLABS: usize = 20;
 /// Largest slab count `bucket:N` accepts.
 pub const MAX_SLABS: usize = 4096;
 
+/// The registry entry of a sort name (`bucket:16` is `bucket`'s); an unknown name is one line
+/// with the known ones and the closest.
+pub fn info(name: &str) -> Result<&'static SortInfo> {
+    let base = name.split(':').next().unwrap_or(name);
+    REGISTRY
+        .iter()
+        .copied()
+        .find(|s| s.name == base)
+        .ok_or_else(|| {
+            Error::Input(format!(
+                "unknown sort '{name}' (known: {}; bucket:N for N slabs){}",
+                SORTS.join(", "),
+                did_you_mean(base, SORTS)
+            ))
+        })
+}
+
 /// Makes a sort by name: one of [`SORTS`], or `bucket:N` with N slabs in 1..=4096.
 pub fn make(name: &str) -> Result<Box<dyn Sort>> {
-    if let Some(n) = name.strip_prefix("bucket:") {
-        let slabs: usize = n.trim().parse().map_err(|_| {
-            Error::Input(format!(
-                "sort '{name}': the slab count must be an integer in 1..={MAX_SLABS}"
-            ))
-        })?;
-        if !(1..=MAX_SLABS).contains(&slabs) {
-            return Err(Error::Input(format!(
-                "sort '{name}': the slab count must be in 1..={MAX_SLABS}"
-            )));
-        }
-        return Ok(Box::new(BucketSort::new(slabs)));
+    let s = info(name)?;
+    let arg = name.split_once(':').map(|(_, a)| a);
+    if arg.is_some() && s.params.is_empty() {
+        return Err(Error::Input(format!(
+            "sort '{name}': '{}' takes no parameter after ':'",
+            s.name
+        )));
     }
-    Ok(match name {
-        "centroid" => Box::new(CentroidSort::new(false)),
-        "centroid-par" => Box::new(CentroidSort::new(true)),
-        "centroid-radix" => Box::new(RadixSort::default()),
-        "bucket" => Box::new(BucketSort::new(DEFAULT_SLABS)),
-        "mpvonc" => Box::new(Mpvonc::default()),
-        "xmpvo" => Box::new(Xmpvo::default()),
-        "bcc-implicit" => Box::new(LatticeSort::new(false)),
-        "bcc-implicit-skip" => Box::new(LatticeSort::new(true)),
-        _ => {
-            return Err(Error::Input(format!(
-                "unknown sort '{name}' (known: {}; bucket:N for N slabs)",
-                SORTS.join(", ")
-            )))
-        }
-    })
+    (s.make)(arg)
 }
 
 /// Tet centroids in the centred frame, f32 (12 bytes per tet).

@@ -48,7 +48,7 @@
 //! [`SortStats::forced`]) and the topological sort goes on from it. Every cell is still emitted
 //! exactly once.
 
-use super::{centroids, check_prepared, f32x3, sort_desc_by_key, KeyFn, Sort, SortStats};
+use super::{centroids, check_prepared, f32x3, sort_desc_by_key, KeyFn, Sort, SortInfo, SortStats};
 use crate::camera::{Camera, Projection};
 use crate::error::{Error, Result};
 use crate::mesh::{Mesh, BOUNDARY};
@@ -79,6 +79,15 @@ pub struct Mpvonc {
     sources: Vec<u32>,
     stack: Vec<u32>,
 }
+
+/// `mpvonc`.
+pub const MPVONC: SortInfo = SortInfo {
+    name: "mpvonc",
+    description: "Williams' MPVONC: topological sort of the face-adjacency visibility graph, O(n)",
+    params: &[],
+    lattice_only: false,
+    make: |_| Ok(Box::new(Mpvonc::default())),
+};
 
 impl Sort for Mpvonc {
     fn name(&self) -> String {

@@ -6,7 +6,7 @@
 //! IEEE total order, and the pairs start in index order, so stability breaks ties by index: the
 //! same order as `centroid`.
 
-use super::{centroids, check_prepared, desc_bits, KeyFn, Sort, SortStats};
+use super::{centroids, check_prepared, desc_bits, KeyFn, Sort, SortInfo, SortStats};
 use crate::camera::Camera;
 use crate::error::Result;
 use crate::mesh::Mesh;
@@ -21,6 +21,15 @@ pub struct RadixSort {
     a: Vec<u64>,
     b: Vec<u64>,
 }
+
+/// `centroid-radix`.
+pub const CENTROID_RADIX: SortInfo = SortInfo {
+    name: "centroid-radix",
+    description: "the centroid order by a stable LSD radix sort of the keys' bits, O(n)",
+    params: &[],
+    lattice_only: false,
+    make: |_| Ok(Box::new(RadixSort::default())),
+};
 
 impl Sort for RadixSort {
     fn name(&self) -> String {

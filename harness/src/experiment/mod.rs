@@ -14,7 +14,10 @@ use algorithms::{Error, Result, TransferFunction};
 use serde::de::{self, MapAccess, SeqAccess, Visitor};
 use serde::{Deserialize, Deserializer};
 
-use crate::cli::MeshArgs;
+use crate::meshes::{self, MeshSpec, Source};
+
+mod views;
+use views::expand_views;
 
 /// The experiment file as written.
 #[derive(Deserialize, Debug, Clone, Default)]
@@ -332,10 +335,7 @@ pub fn validate(cfg: Config, base: &Path) -> Result<Experiment> {
             }
             let mut out = Vec::new();
             for (i, s) in list.iter().enumerate() {
-                out.push(
-                    crate::commands::parse_size(s)
-                        .map_err(|e| key_err(format!("sizes[{i}]"), e))?,
-                );
+                out.push(meshes::parse_size(s).map_err(|e| key_err(format!("sizes[{i}]"), e))?);
             }
             out
         }
@@ -396,7 +396,7 @@ pub fn validate(cfg: Config, base: &Path) -> Result<Experiment> {
         error: cfg.error.unwrap_or(true),
         save_images: cfg.save_images.unwrap_or(false),
         cache_dir: cfg.cache_dir,
-        seed: cfg.seed.unwrap_or(1),
+        seed: cfg.seed.unwrap_or(meshes::DEFAULT_SEED),
         pairs: cfg.pairs,
         base_dir: base.to_path_buf(),
     })
@@ -411,36 +411,15 @@ fn check_dataset(d: &DatasetSpec, base: &Path) -> Result<()> {
         }
     }
     let name = d.mesh.as_str();
-    if Path::new(name).exists() || base.join(name).exists() {
-        return Ok(());
-    }
-    if algorithms::io::SHORT_NAMES
-        .iter()
-        .any(|(n, _, _)| *n == name)
-    {
-        return Ok(());
-    }
-    let (gen, tets) = match name.split_once(':') {
-        Some((g, n)) => (
-            g,
-            Some(n.parse::<usize>().map_err(|_| {
-                Error::Input(format!("'{name}': size after ':' must be a tet count"))
-            })?),
-        ),
-        None => (name, None),
-    };
-    if datasets_gen::find(gen).is_none() {
-        return Err(Error::Input(format!(
-            "'{name}': no such file, and not a dataset name (see `tetbench list`)"
-        )));
-    }
-    if tets.is_some() && d.tets.is_some() {
-        return Err(Error::Input(format!(
-            "'{name}': give the size either after ':' or as `tets`, not both"
-        )));
-    }
-    if d.tets == Some(0) || tets == Some(0) {
-        return Err(Error::Input(format!("'{name}': tets must be at least 1")));
+    if let Source::Generated { tets, .. } = meshes::resolve(name, base)? {
+        if tets.is_some() && d.tets.is_some() {
+            return Err(Error::Input(format!(
+                "'{name}': give the size either after ':' or as `tets`, not both"
+            )));
+        }
+        if d.tets == Some(0) {
+            return Err(Error::Input(format!("'{name}': tets must be at least 1")));
+        }
     }
     Ok(())
 }
@@ -457,8 +436,8 @@ impl DatasetSpec {
         }
     }
 
-    /// The mesh arguments for [`crate::commands::load_mesh`].
-    pub fn mesh_args(&self, base: &Path, seed: u64) -> MeshArgs {
+    /// The mesh to load ([`meshes::load_mesh`]), a relative file resolved against `base`.
+    pub fn mesh_spec(&self, base: &Path, seed: u64) -> MeshSpec {
         let mut mesh = self.mesh.clone();
         if !Path::new(&mesh).exists() && base.join(&mesh).exists() {
             mesh = base.join(&mesh).display().to_string();
@@ -466,13 +445,11 @@ impl DatasetSpec {
         if let Some(t) = self.tets {
             mesh = format!("{mesh}:{t}");
         }
-        MeshArgs {
-            mesh,
+        MeshSpec {
             scalar: self.scalar.clone(),
-            q_file: None,
             split: self.split,
-            one_based: false,
             seed,
+            ..MeshSpec::named(&mesh)
         }
     }
 }
@@ -485,7 +462,7 @@ pub fn expand_renderer(r: &RendererSpec) -> Result<Vec<Variant>> {
         Some(v) if v.iter().any(|s| s == "*") => info
             .sorts
             .iter()
-            .filter(|s| !algorithms::sort::LATTICE_SORTS.contains(s))
+            .filter(|s| !algorithms::sort::info(s).is_ok_and(|i| i.lattice_only))
             .map(|s| Some(s.to_string()))
             .collect(),
         Some(v) if v.is_empty() => vec![None],
@@ -545,89 +522,6 @@ pub fn variant_label(renderer: &str, sort: &str, integrator: &str) -> String {
         }
     }
     l
-}
-
-fn expand_views(v: &ViewsSpec) -> Result<Vec<ViewItem>> {
-    let mut out = Vec::new();
-    for (i, s) in v.named.iter().enumerate() {
-        let view = View::parse(s).map_err(|e| key_err(format!("views.named[{i}]"), e))?;
-        out.push(ViewItem {
-            id: format!("named:{i}"),
-            view,
-        });
-    }
-    for (k, view) in algorithms::camera::fibonacci_views(v.fibonacci)
-        .into_iter()
-        .enumerate()
-    {
-        out.push(ViewItem {
-            id: format!("fib:{k}"),
-            view,
-        });
-    }
-    if let Some(r) = &v.rotate {
-        if r.frames == 0 {
-            return Err(Error::Input(
-                "key `views.rotate.frames`: must be at least 1".into(),
-            ));
-        }
-        let axis = match r.axis.as_str() {
-            "x" => DVec3::X,
-            "y" => DVec3::Y,
-            "z" => DVec3::Z,
-            a => {
-                return Err(Error::Input(format!(
-                    "key `views.rotate.axis`: '{a}': expected x, y or z"
-                )))
-            }
-        };
-        let start = match &r.start {
-            Some(s) => View::parse(s).map_err(|e| key_err("views.rotate.start", e))?,
-            None if r.axis == "z" => View::new(90.0, 0.0),
-            None => View::new(0.0, 0.0),
-        };
-        let d0 = start.to_eye();
-        if d0.cross(axis).length() < 1e-6 {
-            return Err(Error::Input(
-                "key `views.rotate.start`: the start view looks along the rotation axis".into(),
-            ));
-        }
-        for k in 0..r.frames {
-            let ang = -(k as f64) * std::f64::consts::TAU / r.frames as f64;
-            let d = rotate(d0, axis, ang);
-            let el = d.y.clamp(-1.0, 1.0).asin().to_degrees();
-            let mut az = d.x.atan2(d.z).to_degrees();
-            if az < 0.0 {
-                az += 360.0;
-            }
-            out.push(ViewItem {
-                id: format!("rot:{k}"),
-                view: View::new(round6(az), round6(el)),
-            });
-        }
-    }
-    if out.is_empty() {
-        out.push(ViewItem {
-            id: "named:0".into(),
-            view: View::new(0.0, 0.0),
-        });
-    }
-    Ok(out)
-}
-
-fn round6(v: f64) -> f64 {
-    let r = (v * 1e6).round() / 1e6;
-    if r == 0.0 {
-        0.0
-    } else {
-        r
-    }
-}
-
-/// Rodrigues' rotation of `v` about unit `k` by `a` radians. The camera turns by −a when the
-/// model turns by a.
-fn rotate(v: DVec3, k: DVec3, a: f64) -> DVec3 {
-    v * a.cos() + k.cross(v) * a.sin() + k * k.dot(v) * (1.0 - a.cos())
 }
 
 #[cfg(test)]

@@ -1,0 +1,419 @@
+//! What the papers' tables share: renderers chosen from the registry by family, datasets (the
+//! NASA grids when present, else their analogues), the experiment every table starts from,
+//! aggregation over the views, the common notes, and the algorithm tables' paper rows.
+
+use algorithms::render::{self, Family};
+use algorithms::Result;
+
+use super::{Ctx, Done, PaperTable};
+use crate::bench::{self, Outcome};
+use crate::experiment::{
+    self, Config, DatasetSpec, OneOrMany, RendererSpec, RotateSpec, ViewsSpec,
+};
+use crate::rows::Row;
+use crate::stats;
+use crate::table::Table;
+
+// ---------------------------------------------------------------------------------------------
+// Renderer choice: from the registry, so new renderers appear without a change here.
+
+/// A renderer with wanted sorts and integrators; kept only if registered, and only with the
+/// sorts/integrators it accepts.
+pub(crate) fn want(name: &str, sorts: &[&str], integrators: &[&str]) -> Option<RendererSpec> {
+    let info = render::info(name).ok()?;
+    let pick = |want: &[&str], have: &[&str]| -> Option<Vec<String>> {
+        if want.is_empty() {
+            return None;
+        }
+        if want == ["*"] {
+            return Some(vec!["*".into()]);
+        }
+        let v: Vec<String> = want
+            .iter()
+            .filter(|w| have.contains(w))
+            .map(|s| s.to_string())
+            .collect();
+        if v.is_empty() {
+            None
+        } else {
+            Some(v)
+        }
+    };
+    Some(RendererSpec {
+        name: name.to_string(),
+        sorts: if info.sorts.is_empty() {
+            None
+        } else {
+            pick(sorts, info.sorts)
+        },
+        integrators: pick(integrators, info.integrators),
+        ..Default::default()
+    })
+}
+
+/// The largest mesh a GPU renderer draws in a full run when the adapter is a software
+/// rasteriser (lavapipe draws ~0.1 M tet/s at 512²: a 1.4 M-tet frame takes tens of seconds).
+/// On a real GPU there is no limit.
+pub(crate) const SOFTWARE_GPU_MAX_TETS: usize = 600_000;
+
+pub(crate) fn software_gpu() -> bool {
+    algorithms::gpu::Gpu::shared()
+        .map(|g| g.info.device_type == algorithms::gpu::wgpu::DeviceType::Cpu)
+        .unwrap_or(false)
+}
+
+/// Projected-tetrahedra renderers (PTINT's family, every renderer the registry files under
+/// [`Family::Pt`]) with partial pre-integration. With `all_sorts`, each with the sorts its entry
+/// asks the papers' algorithm tables to measure (`table_sorts`); else with its default sort.
+/// GPU renderers are capped on a software adapter.
+pub(crate) fn pt_family(all_sorts: bool) -> Vec<RendererSpec> {
+    let cap = software_gpu().then_some(SOFTWARE_GPU_MAX_TETS);
+    render::family(Family::Pt)
+        .into_iter()
+        .filter_map(|info| {
+            let sorts: &[&str] = if all_sorts { info.table_sorts } else { &[] };
+            let mut r = want(info.name, sorts, &["partial"])?;
+            if info.needs_gpu {
+                r.max_tets = cap;
+            }
+            Some(r)
+        })
+        .collect()
+}
+
+/// The ray casters (HARC's family, the exact `reference` left out) standing in for HARC
+/// (normal pre-integration) and HARC PPI (partial).
+pub(crate) fn ray_casters(preint_too: bool) -> Vec<RendererSpec> {
+    let ints: &[&str] = if preint_too {
+        &["partial", "preint"]
+    } else {
+        &["partial"]
+    };
+    render::family(Family::RayCasting)
+        .into_iter()
+        .filter(|i| i.name != "reference")
+        .filter_map(|i| want(i.name, &[], ints))
+        .collect()
+}
+
+// ---------------------------------------------------------------------------------------------
+// Datasets: the NASA grids when present, else their analogues; smaller meshes with --quick.
+
+/// A paper dataset: its label, the real NASA short name (if any), its datasets-gen analogue,
+/// and the tet count used with --quick (None: full size even in quick mode).
+pub(crate) fn dataset(ctx: &Ctx, label: &str, quick_tets: Option<usize>) -> DatasetSpec {
+    let nasa = ["blunt", "post", "comb"].contains(&label)
+        && matches!(algorithms::io::resolve_short_name(label), Some(Ok(_)));
+    let (mesh, tets) = if nasa && (!ctx.quick || quick_tets.is_none()) {
+        (label.to_string(), None)
+    } else {
+        let gen = match label {
+            "blunt" | "post" | "comb" => format!("{label}-like"),
+            other => other.to_string(),
+        };
+        (gen, if ctx.quick { quick_tets } else { None })
+    };
+    DatasetSpec {
+        mesh,
+        tets,
+        scalar: None,
+        split: None,
+        label: Some(label.to_string()),
+    }
+}
+
+pub(crate) fn mesh_used(cfg: &Config, label: &str) -> String {
+    cfg.datasets
+        .iter()
+        .find(|d| d.label.as_deref() == Some(label))
+        .map(|d| match d.tets {
+            Some(t) => format!("{}:{t}", d.mesh),
+            None if ["blunt", "post", "comb"].contains(&d.mesh.as_str()) => {
+                format!("{} (NASA)", d.mesh)
+            }
+            None => d.mesh.clone(),
+        })
+        .unwrap_or_default()
+}
+
+pub(crate) fn rotating(ctx: &Ctx, full_frames: usize, quick_frames: usize) -> ViewsSpec {
+    ViewsSpec {
+        named: vec![],
+        fibonacci: 0,
+        rotate: Some(RotateSpec {
+            frames: if ctx.quick { quick_frames } else { full_frames },
+            axis: "y".into(),
+            start: Some("0,15".into()),
+        }),
+    }
+}
+
+pub(crate) fn base_config(ctx: &Ctx, name: &str) -> Config {
+    Config {
+        name: Some(name.to_string()),
+        sizes: Some(vec![
+            if ctx.quick { "128x128" } else { "512x512" }.to_string()
+        ]),
+        projection: Some(OneOrMany(vec!["ortho".into()])),
+        tf: Some("default".into()),
+        repeats: Some(2),
+        warmup: Some(1),
+        error: Some(true),
+        save_images: Some(false),
+        ..Default::default()
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Formatting and aggregation.
+
+pub(crate) fn rows_of<'a>(o: &'a Outcome, dataset: &str, variant: &str) -> Vec<&'a Row> {
+    o.rows
+        .iter()
+        .filter(|r| r.dataset == dataset && r.variant == variant && r.total_ms.is_finite())
+        .collect()
+}
+
+/// Aggregates over a set of rows (views): mean frame time → fps, tet/s; mean error.
+pub(crate) struct Agg {
+    pub tets: usize,
+    pub vertices: usize,
+    pub ms: f64,
+    pub fps: f64,
+    pub tets_per_s: f64,
+    pub sort_ms: f64,
+    pub draw_ms: f64,
+    pub rmse: f64,
+    pub cpu_b: f64,
+    pub gpu_b: f64,
+    pub setup_ms: f64,
+}
+
+pub(crate) fn agg(rows: &[&Row]) -> Agg {
+    let mean =
+        |g: &dyn Fn(&Row) -> f64| stats::mean(&rows.iter().map(|r| g(r)).collect::<Vec<_>>());
+    // The papers average over a rotating model: mean frame time over the views.
+    let ms = mean(&|r| r.total_ms);
+    let tets = rows.first().map(|r| r.tets).unwrap_or(0);
+    Agg {
+        tets,
+        vertices: rows.first().map(|r| r.vertices).unwrap_or(0),
+        ms,
+        fps: 1e3 / ms,
+        tets_per_s: tets as f64 / (ms * 1e-3),
+        sort_ms: mean(&|r| r.sort_ms),
+        draw_ms: mean(&|r| r.draw_ms),
+        rmse: mean(&|r| r.rmse.unwrap_or(f64::NAN)),
+        cpu_b: rows
+            .first()
+            .map(|r| r.cpu_bytes_per_tet)
+            .unwrap_or(f64::NAN),
+        gpu_b: rows
+            .first()
+            .map(|r| r.gpu_bytes_per_tet)
+            .unwrap_or(f64::NAN),
+        setup_ms: rows.first().map(|r| r.setup_ms).unwrap_or(f64::NAN),
+    }
+}
+
+pub(crate) fn variants(o: &Outcome) -> Vec<String> {
+    let mut v: Vec<String> = Vec::new();
+    for r in &o.rows {
+        if !v.contains(&r.variant) {
+            v.push(r.variant.clone());
+        }
+    }
+    v
+}
+
+/// `*` matches any run of characters.
+pub(crate) fn glob(pattern: &str, s: &str) -> bool {
+    match pattern.split_once('*') {
+        None => pattern == s,
+        Some((head, rest)) => {
+            if !s.starts_with(head) {
+                return false;
+            }
+            let s = &s[head.len()..];
+            (0..=s.len()).any(|i| s.is_char_boundary(i) && glob(rest, &s[i..]))
+        }
+    }
+}
+
+pub(crate) fn common_notes(ctx: &Ctx, cfg: &Config) -> Vec<String> {
+    let mut n = vec![
+        format!(
+            "Measured: {} image(s) {}, views {}, {} measured frame(s) per view after {} warm-up frame(s); fps = 1000 / mean frame time over the views (the papers' rotating model); {}",
+            cfg.sizes.as_ref().map(|s| s.join(", ")).unwrap_or_default(),
+            cfg.projection.as_ref().map(|p| p.0.join(", ")).unwrap_or_default(),
+            describe_views(&cfg.views),
+            cfg.repeats.unwrap_or(3),
+            cfg.warmup.unwrap_or(1),
+            if cfg.error == Some(false) {
+                "no image was compared with the exact reference in this run (— in the RMSE columns)."
+            } else {
+                "errors are RMSE against the `reference` renderer (exact integrator)."
+            }
+        ),
+        "CPU B/tet: heap bytes the renderer keeps after `prepare` (counting allocator); GPU B/tet: the renderer's buffers and textures.".into(),
+    ];
+    if ctx.quick {
+        n.push("`--quick`: smaller meshes (see 'mesh used'), smaller images and fewer views than the paper; rates are not comparable to the paper's at face value.".into());
+    }
+    if let Some(cap) = cfg.renderers.iter().find_map(|r| r.max_tets) {
+        n.push(format!("The GPU adapter is a software rasteriser (see README.md): the ptint and hapt rows of the papers' direct volume rendering variants are measured on meshes up to {cap} tets only (HAPT Table 2's ISO and DVR+ISO rows on all), and their rates say what the algorithms cost on a CPU emulating a GPU, not GPU speed. Rerun on a real GPU for the other rows."));
+    }
+    n
+}
+
+pub(crate) fn describe_views(v: &ViewsSpec) -> String {
+    let mut s = Vec::new();
+    if !v.named.is_empty() {
+        s.push(v.named.join(" "));
+    }
+    if v.fibonacci > 0 {
+        s.push(format!("{} Fibonacci views over the sphere", v.fibonacci));
+    }
+    if let Some(r) = &v.rotate {
+        s.push(format!(
+            "{} frames of a rotation about {} from {}",
+            r.frames,
+            r.axis,
+            r.start.as_deref().unwrap_or("0,0")
+        ));
+    }
+    s.join(", ")
+}
+
+// ---------------------------------------------------------------------------------------------
+// Algorithm tables (PTINT Table 2, HAPT Tables 3 and 4): paper rows, each with the variants
+// standing in for it.
+
+/// A paper row: name, the paper's figures, variant-label patterns that stand in for it.
+pub(crate) struct PaperRow {
+    pub name: &'static str,
+    pub values: &'static [&'static str],
+    pub ours: &'static [&'static str],
+}
+
+/// Rows: each paper row with its matching variants (or none), then variants no row claims.
+/// `measure` gives the measured cells of one variant.
+pub(crate) fn algo_rows(
+    paper: &[PaperRow],
+    paper_cols: usize,
+    vars: &[String],
+    measure: &dyn Fn(&str) -> Vec<String>,
+    measured_cols: usize,
+) -> Vec<Vec<String>> {
+    let mut out = Vec::new();
+    let mut claimed = vec![false; vars.len()];
+    for p in paper {
+        let mine: Vec<usize> = (0..vars.len())
+            .filter(|&i| p.ours.iter().any(|pat| glob(pat, &vars[i])))
+            .collect();
+        let head = |r: &mut Vec<String>| {
+            r.push(p.name.to_string());
+            r.extend(p.values.iter().map(|s| s.to_string()));
+        };
+        if mine.is_empty() {
+            let mut r = Vec::new();
+            head(&mut r);
+            // Registered but without rows (e.g. a GPU renderer capped on a software adapter)
+            // is not the same as not implemented.
+            let registered = p.ours.iter().any(|pat| {
+                let name = pat.split(['/', '*']).next().unwrap_or("");
+                !name.is_empty() && render::info(name).is_ok()
+            });
+            r.push(if registered {
+                "— (not measured in this run)".into()
+            } else {
+                "— (not implemented)".into()
+            });
+            r.extend(std::iter::repeat_n("—".to_string(), measured_cols));
+            out.push(r);
+        }
+        for i in mine {
+            claimed[i] = true;
+            let mut r = Vec::new();
+            head(&mut r);
+            r.push(vars[i].clone());
+            r.extend(measure(&vars[i]));
+            out.push(r);
+        }
+    }
+    for (i, v) in vars.iter().enumerate() {
+        if !claimed[i] {
+            let mut r = vec!["(no paper row)".to_string()];
+            r.extend(std::iter::repeat_n("—".to_string(), paper_cols));
+            r.push(v.clone());
+            r.extend(measure(v));
+            out.push(r);
+        }
+    }
+    out
+}
+
+/// Runs an experiment table: its experiment (or why it is skipped), the bench run under
+/// `DIR/raw/<id>/`, the table laid out by `build` and its plots.
+pub(crate) fn run_experiment(
+    t: &dyn PaperTable,
+    ctx: &Ctx,
+    experiment: fn(&Ctx) -> std::result::Result<Config, String>,
+    build: fn(&Ctx, &Config, &Outcome) -> Table,
+    plots: &dyn Fn(&Outcome, &std::path::Path) -> Result<Vec<std::path::PathBuf>>,
+) -> Result<Done> {
+    let cfg = match experiment(ctx) {
+        Ok(c) => c,
+        Err(why) => return Ok(Done::Skipped(why)),
+    };
+    if cfg.renderers.is_empty() {
+        return Ok(Done::Skipped(
+            "no renderer of its families is registered".into(),
+        ));
+    }
+    let exp = experiment::validate(cfg.clone(), std::path::Path::new("."))?;
+    let raw = ctx.out.join("raw").join(t.id());
+    let mut opts = bench::RunOptions::new(&exp, &raw);
+    opts.cache_dir = ctx.out.join(".cache");
+    opts.title = t.id().to_string();
+    let o = bench::run(&exp, &opts)?;
+    if o.interrupted {
+        return Err(algorithms::Error::Input(format!(
+            "interrupted during {}: finished rows kept in {}",
+            t.id(),
+            raw.join("results.csv").display()
+        )));
+    }
+    let mut table = build(ctx, &cfg, &o);
+    table
+        .notes
+        .push(format!("Raw rows: `raw/{}/results.csv`.", t.id()));
+    let plots = plots(&o, &ctx.out)?;
+    Ok(Done::Table { table, plots })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn glob_matches() {
+        assert!(glob("cpu-pt/centroid/*", "cpu-pt/centroid/partial"));
+        assert!(!glob("cpu-pt/centroid/*", "cpu-pt/centroid-radix/partial"));
+        assert!(glob("ptint*", "ptint/partial"));
+        assert!(glob("raycast/preint", "raycast/preint"));
+    }
+
+    /// Every registered PT renderer (cpu-pt-slab16 included) and ray caster is in the PT
+    /// tables' experiments, with no name written in the harness.
+    #[test]
+    fn the_families_come_from_the_registry() {
+        let pt: Vec<String> = pt_family(false).into_iter().map(|r| r.name).collect();
+        for r in render::family(Family::Pt) {
+            assert!(pt.iter().any(|n| n == r.name), "{} missing", r.name);
+        }
+        assert!(pt.iter().any(|n| n == "cpu-pt-slab16"));
+        let rc: Vec<String> = ray_casters(true).into_iter().map(|r| r.name).collect();
+        assert_eq!(rc, ["raycast"]);
+    }
+}

@@ -1,0 +1,98 @@
+//! The papers' tables, one [`PaperTable`] each, one file per paper, listed once in [`TABLES`]:
+//! adding a table is one `impl PaperTable` and one line there, and `tetbench reproduce`
+//! (`--only`, the README index, the status lines) finds it.
+//!
+//! The experiment tables build their experiment from whatever renderers the registry holds, by
+//! family (so a new projected-tetrahedra variant gets rows in every PT table with no change
+//! here), and lay the measured rows out beside the paper's own figures.
+
+use std::path::PathBuf;
+
+use algorithms::Result;
+
+use crate::table::Table;
+
+/// A [`PaperTable`] over an experiment: `table!(Type, id, title, about, experiment, build,
+/// plots)` (see [`common::run_experiment`]).
+macro_rules! table {
+    ($ty:ident, $id:literal, $title:literal, $about:literal, $exp:ident, $build:ident, $plots:expr) => {
+        #[doc = $title]
+        pub struct $ty;
+
+        impl PaperTable for $ty {
+            fn id(&self) -> &'static str {
+                $id
+            }
+            fn title(&self) -> &'static str {
+                $title
+            }
+            fn about(&self) -> &'static str {
+                $about
+            }
+            fn run(&self, ctx: &Ctx) -> Result<Done> {
+                $crate::papers::common::run_experiment(self, ctx, $exp, $build, &$plots)
+            }
+        }
+    };
+}
+
+pub mod bcc;
+pub mod common;
+pub mod hapt;
+pub mod hapt_algorithms;
+pub mod jbu;
+pub mod ptint;
+
+/// What a table is run with.
+pub struct Ctx {
+    /// Smaller meshes, fewer views, smaller images.
+    pub quick: bool,
+    /// The output directory (`DIR`): tables, plots, `raw/<id>/`, the shared `.cache/`.
+    pub out: PathBuf,
+}
+
+/// What running a table gave.
+pub enum Done {
+    /// A table for `DIR/<id>.csv` and `DIR/<id>.md`, and the plots it drew.
+    Table { table: Table, plots: Vec<PathBuf> },
+    /// The table wrote its own files; the line says which (for the README).
+    Files(String),
+    /// Not run, and why (one line).
+    Skipped(String),
+}
+
+/// One of the papers' tables or figures.
+pub trait PaperTable: Sync {
+    /// The id: `--only` name and file stem.
+    fn id(&self) -> &'static str;
+    /// The paper's caption, as the table's heading.
+    fn title(&self) -> &'static str;
+    /// What it measures and how to read it (for `DIR/README.md`).
+    fn about(&self) -> &'static str;
+    /// Measures it.
+    fn run(&self, ctx: &Ctx) -> Result<Done>;
+}
+
+/// Every table `reproduce` writes, in order.
+pub static TABLES: &[&dyn PaperTable] = &[
+    &ptint::Table1,
+    &ptint::Table2,
+    &ptint::Fig8,
+    &hapt::Table1,
+    &hapt::Table2,
+    &hapt_algorithms::Table3,
+    &hapt_algorithms::Table4,
+    &jbu::Figures,
+    &bcc::Pt,
+    &bcc::Reconstruction,
+];
+
+/// The table with this id.
+pub fn find(id: &str) -> Option<&'static dyn PaperTable> {
+    TABLES.iter().copied().find(|t| t.id() == id)
+}
+
+/// The ids of every table.
+pub fn ids() -> Vec<&'static str> {
+    TABLES.iter().map(|t| t.id()).collect()
+}

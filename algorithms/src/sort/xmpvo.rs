@@ -54,7 +54,9 @@
 
 mod exterior;
 
-use super::{centroids, check_prepared, f32x3, sort_desc_by_key, KeyFn, Sort, SortInfo, SortStats};
+use super::{
+    centroids, check_prepared, f32x3, sort_desc_by_key, KeyFn, Sort, SortInfo, SortStats,
+};
 use crate::camera::{Camera, Projection};
 use crate::error::{Error, Result};
 use crate::mesh::{signed_volume6, Mesh, BOUNDARY};
@@ -75,8 +77,8 @@ const FORCED: u32 = 1 << 31;
 /// `xmpvo`.
 pub const XMPVO: SortInfo = SortInfo {
     name: "xmpvo",
-    description: "MPVONC's face DAG plus the per-pixel boundary order across empty space: \
-                  visibility-exact on non-convex meshes at image resolution (XMPVO)",
+    description: "MPVONC's face DAG plus the per-pixel boundary order across empty space \
+                  (XMPVO, image-space exterior ordering): exact at image resolution when acyclic",
     params: &[],
     lattice_only: false,
     make: |_| Ok(Box::new(Xmpvo::default())),

@@ -15,8 +15,7 @@ use algorithms::camera::{Camera, Projection};
 use algorithms::jbu::{cube_views, low_camera, Method, Params, Upsampler};
 use algorithms::render::{self, RenderOptions};
 use algorithms::{metrics, TransferFunction};
-use tetbench::cli::MeshArgs;
-use tetbench::commands::load_mesh;
+use tetbench::meshes::{load_mesh, MeshSpec};
 
 fn parse_method(s: &str) -> Params {
     let mut it = s.split(':');
@@ -47,15 +46,7 @@ fn main() {
     let dump = a.get(5).map(std::path::PathBuf::from);
     let tf = TransferFunction::load("default").unwrap();
     for ds in datasets {
-        let mesh = load_mesh(&MeshArgs {
-            mesh: ds.into(),
-            scalar: None,
-            q_file: None,
-            split: None,
-            one_based: false,
-            seed: 1,
-        })
-        .unwrap();
+        let mesh = load_mesh(&MeshSpec::named(ds)).unwrap();
         let mut ups: Vec<Upsampler> = mnames
             .iter()
             .map(|m| Upsampler::new(parse_method(m)).unwrap())

@@ -5,7 +5,7 @@ use algorithms::Result;
 
 use super::common::{
     agg, algo_rows, base_config, common_notes, dataset, external_note, external_peers, mesh_used,
-    pt_family, ray_casters, rotating, rows_of, run_experiment, variants, PaperRow,
+    pt_family, ray_casters, rotating, rows_of, variants, PaperRow,
 };
 use super::{Ctx, Done, PaperTable};
 use crate::bench::Outcome;

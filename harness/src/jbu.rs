@@ -9,12 +9,11 @@
 //! frame time of the `jbu:<renderer>@<low_res>` wrapper; `speedup` = full-size time / `time_ms`;
 //! `rmse` (CONVENTIONS §6) is against the full-size image of the same renderer.
 //!
-//! Writes `DIR/jbu.csv` and the plots `DIR/jbu_time_<renderer>.svg` (log time per resolution,
-//! bilateral with the default k) and `DIR/jbu_rmse_<renderer>.svg` (RMSE per resolution, one
+//! Writes `DIR/jbu.csv` and the plots `DIR/jbu_time_<renderer>.png|svg` (log time per resolution,
+//! bilateral with the default k) and `DIR/jbu_rmse_<renderer>.png|svg` (RMSE per resolution, one
 //! colour per dataset, solid bilateral, dashed linear, dotted nearest). The SVG is written by
 //! hand (no plotting dependency).
 
-use std::fmt::Write as _;
 use std::path::Path;
 
 use algorithms::camera::{Camera, Projection, View};
@@ -303,14 +302,13 @@ fn write_outputs(rows: &[Row], plan: &Plan, dir: &Path) -> Result<()> {
     Ok(())
 }
 
-/// The plots `DIR/jbu_time_<renderer>.svg` and `DIR/jbu_rmse_<renderer>.svg`.
+/// The plots `DIR/jbu_time_<renderer>.{png,svg}` and `DIR/jbu_rmse_<renderer>.{png,svg}`
+/// (plotters, like every other plot of the harness).
 pub fn write_plots(rows: &[Row], plan: &Plan, dir: &Path) -> Result<()> {
     for rname in &plan.renderers {
         let file = rname.replace(|c: char| !c.is_ascii_alphanumeric() && c != '-', "_");
-        let svg = time_plot(rows, plan, rname);
-        write_file(&dir.join(format!("jbu_time_{file}.svg")), svg.as_bytes())?;
-        let svg = rmse_plot(rows, plan, rname);
-        write_file(&dir.join(format!("jbu_rmse_{file}.svg")), svg.as_bytes())?;
+        time_plot(rows, plan, rname, &dir.join(format!("jbu_time_{file}")))?;
+        rmse_plot(rows, plan, rname, &dir.join(format!("jbu_rmse_{file}")))?;
     }
     Ok(())
 }
@@ -382,246 +380,53 @@ fn summary(rows: &[Row]) {
     }
 }
 
-// ---- hand-written SVG line plots ----
-
-const COLORS: [&str; 8] = [
-    "#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf",
-];
-
-struct Series {
-    label: String,
-    color: &'static str,
-    dash: &'static str,
-    points: Vec<(f64, f64)>,
-}
-
-/// A line plot with a log2 x axis (resolutions) and a linear or log10 y axis.
-fn svg_plot(title: &str, xlabel: &str, ylabel: &str, series: &[Series], log_y: bool) -> String {
-    // Lines join the points in order of resolution, whatever order the rows came in.
-    let sorted: Vec<Series> = series
-        .iter()
-        .map(|s| {
-            let mut points = s.points.clone();
-            points.sort_by(|a, b| a.0.total_cmp(&b.0));
-            Series {
-                points,
-                label: s.label.clone(),
-                ..*s
-            }
-        })
-        .collect();
-    let series = &sorted[..];
-    let (w, h) = (720.0, 460.0);
-    let (l, r, t, b) = (80.0, 200.0, 40.0, 60.0);
-    let pts = || series.iter().flat_map(|s| s.points.iter().copied());
-    let fy = |y: f64| if log_y { y.max(1e-12).log10() } else { y };
-    let (mut x0, mut x1) = (f64::INFINITY, f64::NEG_INFINITY);
-    let (mut y0, mut y1) = (f64::INFINITY, f64::NEG_INFINITY);
-    for (x, y) in pts() {
-        if !(x > 0.0 && y.is_finite()) || (log_y && y <= 0.0) {
-            continue;
-        }
-        x0 = x0.min(x.log2());
-        x1 = x1.max(x.log2());
-        y0 = y0.min(fy(y));
-        y1 = y1.max(fy(y));
-    }
-    if !(x0.is_finite() && y0.is_finite()) {
-        x0 = 0.0;
-        x1 = 1.0;
-        y0 = 0.0;
-        y1 = 1.0;
-    }
-    if log_y {
-        y0 = y0.floor();
-        y1 = y1.ceil().max(y0 + 1.0);
-    } else {
-        y0 = 0.0;
-        y1 = if y1 > 0.0 { y1 * 1.1 } else { 1.0 };
-    }
-    if x1 <= x0 {
-        x1 = x0 + 1.0;
-    }
-    let (pw, ph) = (w - l - r, h - t - b);
-    let sx = |x: f64| l + (x.log2() - x0) / (x1 - x0) * pw;
-    let sy = |y: f64| t + ph - (fy(y) - y0) / (y1 - y0) * ph;
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" font-family="sans-serif" font-size="12">"#
-    );
-    let _ = writeln!(s, r#"<rect width="{w}" height="{h}" fill="white"/>"#);
-    let _ = writeln!(
-        s,
-        r#"<text x="{}" y="22" text-anchor="middle" font-size="15">{}</text>"#,
-        l + pw / 2.0,
-        esc(title)
-    );
-    let _ = writeln!(
-        s,
-        r#"<rect x="{l}" y="{t}" width="{pw}" height="{ph}" fill="none" stroke="black"/>"#
-    );
-    // x ticks at the powers of two in range.
-    let mut e = x0.ceil();
-    while e <= x1 + 1e-9 {
-        let x = 2f64.powf(e);
-        let px = sx(x);
-        let _ = writeln!(
-            s,
-            r##"<line x1="{px}" y1="{t}" x2="{px}" y2="{}" stroke="#dddddd"/><text x="{px}" y="{}" text-anchor="middle">{}²</text>"##,
-            t + ph,
-            t + ph + 16.0,
-            x
-        );
-        e += 1.0;
-    }
-    // y ticks: decades (log) or 5 steps.
-    let ticks: Vec<f64> = if log_y {
-        (y0 as i32..=y1 as i32).map(|d| 10f64.powi(d)).collect()
-    } else {
-        (0..=5).map(|i| y1 * i as f64 / 5.0).collect()
-    };
-    for v in ticks {
-        let py = sy(v);
-        let _ = writeln!(
-            s,
-            r##"<line x1="{l}" y1="{py}" x2="{}" y2="{py}" stroke="#dddddd"/><text x="{}" y="{}" text-anchor="end">{}</text>"##,
-            l + pw,
-            l - 6.0,
-            py + 4.0,
-            fmt_tick(v)
-        );
-    }
-    let _ = writeln!(
-        s,
-        r#"<text x="{}" y="{}" text-anchor="middle">{}</text>"#,
-        l + pw / 2.0,
-        h - 18.0,
-        esc(xlabel)
-    );
-    let _ = writeln!(
-        s,
-        r#"<text x="18" y="{}" text-anchor="middle" transform="rotate(-90 18 {})">{}</text>"#,
-        t + ph / 2.0,
-        t + ph / 2.0,
-        esc(ylabel)
-    );
-    for (n, se) in series.iter().enumerate() {
-        let p: Vec<String> = se
-            .points
-            .iter()
-            .filter(|(x, y)| *x > 0.0 && y.is_finite() && (!log_y || *y > 0.0))
-            .map(|&(x, y)| format!("{:.1},{:.1}", sx(x), sy(y)))
-            .collect();
-        let _ = writeln!(
-            s,
-            r#"<polyline points="{}" fill="none" stroke="{}" stroke-width="2" stroke-dasharray="{}"/>"#,
-            p.join(" "),
-            se.color,
-            se.dash
-        );
-        for q in &p {
-            let (x, y) = q.split_once(',').unwrap_or(("0", "0"));
-            let _ = writeln!(
-                s,
-                r#"<circle cx="{x}" cy="{y}" r="3" fill="{}"/>"#,
-                se.color
-            );
-        }
-        let ly = t + 14.0 + 18.0 * n as f64;
-        let lx = l + pw + 12.0;
-        let _ = writeln!(
-            s,
-            r#"<line x1="{lx}" y1="{ly}" x2="{}" y2="{ly}" stroke="{}" stroke-width="2" stroke-dasharray="{}"/><text x="{}" y="{}">{}</text>"#,
-            lx + 28.0,
-            se.color,
-            se.dash,
-            lx + 34.0,
-            ly + 4.0,
-            esc(&se.label)
-        );
-    }
-    s.push_str("</svg>\n");
-    s
-}
-
-fn fmt_tick(v: f64) -> String {
-    if v == 0.0 {
-        "0".into()
-    } else if (1e-3..1e5).contains(&v.abs()) {
-        let t = format!("{v:.4}");
-        t.trim_end_matches('0').trim_end_matches('.').to_string()
-    } else {
-        format!("{v:.0e}")
-    }
-}
-
-fn esc(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-}
-
-/// Fig. 3/4: time per resolution (log), bilateral with the default k; the full size is the
+/// Fig. 3/4: time per resolution, bilateral with the default k; the full size is the
 /// renderer itself.
-fn time_plot(rows: &[Row], plan: &Plan, renderer: &str) -> String {
+fn time_plot(rows: &[Row], plan: &Plan, renderer: &str, stem: &Path) -> Result<()> {
     let k = Params::default().k;
-    let series: Vec<Series> = plan
+    let series = plan
         .datasets
         .iter()
-        .enumerate()
-        .map(|(n, ds)| Series {
-            label: ds.clone(),
-            color: COLORS[n % COLORS.len()],
-            dash: "none",
-            points: rows
+        .map(|ds| {
+            let pts = rows
                 .iter()
                 .filter(|r| &r.dataset == ds && r.renderer == renderer)
                 .filter(|r| r.method == "full" || (r.method == "bilateral" && r.k == k))
                 .map(|r| (r.low_res as f64, r.time_ms))
-                .collect(),
+                .collect();
+            (ds.clone(), pts)
         })
         .collect();
-    svg_plot(
-        &format!(
-            "{renderer}: time per frame, upsampled to {0}² (JBU Fig. 3/4)",
-            plan.full
-        ),
-        "rendered resolution (the largest is the full-size render)",
-        "time per frame (ms, log)",
-        &series,
-        true,
-    )
+    let title = format!(
+        "{renderer}: time per frame, upsampled to {0}² (JBU Fig. 3/4)",
+        plan.full
+    );
+    let x = "rendered resolution (pixels per side; the largest is the full-size render)";
+    crate::plots::lines_loglog(series, stem, &title, x, "time per frame (ms)")?;
+    Ok(())
 }
 
-/// Fig. 5: RMSE against the full-size image per resolution; bilateral (solid, default k),
-/// linear (dashed), nearest (dotted).
-fn rmse_plot(rows: &[Row], plan: &Plan, renderer: &str) -> String {
+/// Fig. 5: RMSE against the full-size image per resolution, per dataset and method
+/// (bilateral with the default k, linear, nearest).
+fn rmse_plot(rows: &[Row], plan: &Plan, renderer: &str, stem: &Path) -> Result<()> {
     let k = Params::default().k;
     let mut series = Vec::new();
-    for (n, ds) in plan.datasets.iter().enumerate() {
-        for (m, dash) in [("bilateral", "none"), ("linear", "6,4"), ("nearest", "2,3")] {
-            series.push(Series {
-                label: format!("{ds} {m}"),
-                color: COLORS[n % COLORS.len()],
-                dash,
-                points: rows
-                    .iter()
-                    .filter(|r| &r.dataset == ds && r.renderer == renderer && r.method == m)
-                    .filter(|r| m != "bilateral" || r.k == k)
-                    .map(|r| (r.low_res as f64, r.rmse))
-                    .collect(),
-            });
+    for ds in &plan.datasets {
+        for m in ["bilateral", "linear", "nearest"] {
+            let pts = rows
+                .iter()
+                .filter(|r| &r.dataset == ds && r.renderer == renderer && r.method == m)
+                .filter(|r| m != "bilateral" || r.k == k)
+                .map(|r| (r.low_res as f64, r.rmse))
+                .collect();
+            series.push((format!("{ds} {m}"), pts));
         }
     }
-    svg_plot(
-        &format!(
-            "{renderer}: RMSE against the full {0}² image (JBU Fig. 5)",
-            plan.full
-        ),
-        "rendered resolution",
-        "RMSE",
-        &series,
-        false,
-    )
+    let title = format!(
+        "{renderer}: RMSE against the full {0}² image (JBU Fig. 5)",
+        plan.full
+    );
+    let x = "rendered resolution (pixels per side)";
+    crate::plots::lines_loglog(series, stem, &title, x, "RMSE (linear RGBA, 0..1)")?;
+    Ok(())
 }

@@ -16,15 +16,37 @@ use crate::meshes::{load_mesh, parse_size};
 use crate::rows;
 use crate::table;
 
+/// Rows of the last bench or merge that failed; `main` turns a nonzero count into exit 3.
+pub static FAILED_ROWS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
+/// How `tetbench bench` runs, from its flags.
+pub struct BenchFlags<'a> {
+    pub config: &'a std::path::Path,
+    pub out: &'a std::path::Path,
+    pub plots: bool,
+    pub shard: Option<&'a str>,
+    pub resume: bool,
+    pub force: bool,
+}
+
 /// `tetbench bench`: validate everything first, then run, then plot.
-fn bench_cmd(config: &std::path::Path, out: &std::path::Path, plots: bool) -> Result<()> {
-    let exp = crate::experiment::load(config)?;
-    let opts = bench::RunOptions::new(&exp, out);
+fn bench_cmd(f: &BenchFlags) -> Result<()> {
+    let shard = match f.shard {
+        Some(s) => crate::sweep::Shard::parse(s)?,
+        None => crate::sweep::Shard::ALL,
+    };
+    let exp = crate::experiment::load(f.config)?;
+    let out = f.out;
+    let mut opts = bench::RunOptions::new(&exp, out);
+    opts.shard = shard;
+    opts.resume = f.resume;
+    opts.force = f.force;
+    opts.identity = crate::sweep::experiment_hash(f.config)?;
     let o = bench::run(&exp, &opts)?;
     let csv = out.join("results.csv");
     if o.interrupted {
         return Err(Error::Input(format!(
-            "interrupted: {} finished rows kept in {}",
+            "interrupted: {} finished rows kept in {} (continue with --resume)",
             o.rows.len(),
             csv.display()
         )));
@@ -38,11 +60,43 @@ fn bench_cmd(config: &std::path::Path, out: &std::path::Path, plots: bool) -> Re
         "reference_images: {} rendered, {} from cache",
         o.reference_renders, o.reference_hits
     );
-    if plots {
+    // A shard's plots would show a part of the sweep: `merge` draws them.
+    if f.plots && shard.count == 1 {
         for p in crate::plots::all(&o.rows, &o.pairs, out)? {
             println!("plot: {}", p.display());
         }
     }
+    report_failed(&o.rows);
+    Ok(())
+}
+
+/// Says how many rows failed (and sets [`FAILED_ROWS`] for the exit status).
+fn report_failed(rows: &[rows::Row]) {
+    let failed: Vec<&rows::Row> = rows.iter().filter(|r| crate::sweep::failed(r)).collect();
+    if let Some(first) = failed.first() {
+        eprintln!(
+            "tetbench: {} of {} rows failed (their note column says why; first: {} {}: {})",
+            failed.len(),
+            rows.len(),
+            first.dataset,
+            first.variant,
+            first.note
+        );
+    }
+    FAILED_ROWS.store(failed.len(), std::sync::atomic::Ordering::SeqCst);
+}
+
+/// `tetbench merge`: check and merge shard directories, then plot.
+fn merge_cmd(out: &std::path::Path, shards: &[std::path::PathBuf], plots: bool) -> Result<()> {
+    let rows = crate::merge::merge(out, shards)?;
+    println!("rows: {}", rows.len());
+    println!("results: {}", out.join("results.csv").display());
+    if plots {
+        for p in crate::plots::all(&rows, &[], out)? {
+            println!("plot: {}", p.display());
+        }
+    }
+    report_failed(&rows);
     Ok(())
 }
 
@@ -75,7 +129,22 @@ pub fn run(cli: Cli) -> Result<()> {
             config,
             out,
             no_plots,
-        } => bench_cmd(&config, &out, !no_plots),
+            shard,
+            resume,
+            force,
+        } => bench_cmd(&BenchFlags {
+            config: &config,
+            out: &out,
+            plots: !no_plots,
+            shard: shard.as_deref(),
+            resume,
+            force,
+        }),
+        Command::Merge {
+            out,
+            shards,
+            no_plots,
+        } => merge_cmd(&out, &shards, !no_plots),
         Command::Reproduce { quick, out, only } => crate::reproduce::run(quick, &out, &only),
         Command::Plot { dir } => {
             let rows = rows::read_rows(&dir.join("results.csv"))?;

@@ -376,6 +376,8 @@ pub(crate) fn run_experiment(
     let mut opts = bench::RunOptions::new(&exp, &raw);
     opts.cache_dir = ctx.out.join(".cache");
     opts.title = t.id().to_string();
+    // `reproduce` regenerates its tables: the raw rows of an earlier run are replaced.
+    opts.force = true;
     let o = bench::run(&exp, &opts)?;
     if o.interrupted {
         return Err(algorithms::Error::Input(format!(

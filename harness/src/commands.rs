@@ -147,7 +147,14 @@ pub fn run(cli: Cli) -> Result<()> {
         } => merge_cmd(&out, &shards, !no_plots),
         Command::Reproduce { quick, out, only } => crate::reproduce::run(quick, &out, &only),
         Command::Plot { dir } => {
-            let rows = rows::read_rows(&dir.join("results.csv"))?;
+            let csv = dir.join("results.csv");
+            let rows = rows::read_rows(&csv)?;
+            if rows.is_empty() {
+                return Err(Error::Input(format!(
+                    "{}: no rows, nothing to plot",
+                    csv.display()
+                )));
+            }
             let pairs = rows::read_pairs(&dir.join("pairs.csv"))?;
             for p in crate::plots::all(&rows, &pairs, &dir)? {
                 println!("plot: {}", p.display());

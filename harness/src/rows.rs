@@ -152,3 +152,31 @@ pub fn read_pairs(path: &Path) -> Result<Vec<PairRow>> {
         .map(|x| x.map_err(|e| Error::Input(format!("{}: {e}", path.display()))))
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_full_disk_gives_one_line_naming_the_file_and_no_torn_row() {
+        // /dev/full refuses every write with ENOSPC.
+        let p = Path::new("/dev/full");
+        if !p.exists() {
+            return;
+        }
+        let mut w = CsvSink::create(p).unwrap();
+        let e = w.write(&Row::default()).unwrap_err().to_string();
+        assert!(e.starts_with("/dev/full: ") && !e.contains('\n'), "{e}");
+        assert!(e.to_lowercase().contains("space"), "{e}");
+        // A real file: whole rows, appended, a header only once.
+        let d = std::env::temp_dir().join(format!("tetbench-rows-{}.csv", std::process::id()));
+        let _ = std::fs::remove_file(&d);
+        CsvSink::create(&d).unwrap().write(&Row::default()).unwrap();
+        CsvSink::append(&d).unwrap().write(&Row::default()).unwrap();
+        let text = std::fs::read_to_string(&d).unwrap();
+        assert_eq!(text.lines().count(), 3);
+        assert!(text.ends_with('\n'));
+        assert_eq!(read_rows(&d).unwrap().len(), 2);
+        let _ = std::fs::remove_file(&d);
+    }
+}

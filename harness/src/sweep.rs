@@ -238,8 +238,17 @@ pub fn clean_stale_tmp(dir: &Path) {
         if !name.starts_with('.') {
             continue;
         }
+        // `.NAME.tmpPID` (the atomic writer) or `.STEM.tmpPID.EXT` (plots).
         if let Some(pos) = name.rfind(".tmp") {
-            if let Ok(pid) = name[pos + 4..].parse::<i32>() {
+            let digits: String = name[pos + 4..]
+                .chars()
+                .take_while(char::is_ascii_digit)
+                .collect();
+            let rest = &name[pos + 4 + digits.len()..];
+            if !rest.is_empty() && !rest.starts_with('.') {
+                continue;
+            }
+            if let Ok(pid) = digits.parse::<i32>() {
                 if !alive(pid) || pid as u32 == std::process::id() {
                     let _ = std::fs::remove_file(&p);
                 }

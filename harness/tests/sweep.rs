@@ -322,3 +322,17 @@ fn a_second_run_into_one_out_is_refused_by_the_lock() {
     assert!(!out.join(".cache/.ref-x.exr.tmp999999999").exists());
     let _ = std::fs::remove_dir_all(&d);
 }
+
+#[test]
+fn plot_on_an_empty_or_header_only_csv_says_nothing_to_plot() {
+    let d = tmpdir("emptyplot");
+    std::fs::write(d.join("results.csv"), b"").unwrap();
+    let o = tetbench(&["plot", s(&d)]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(err_line(&o).contains("nothing to plot"), "{}", err_line(&o));
+    std::fs::write(d.join("results.csv"), b"dataset,tets\n").unwrap();
+    let o = tetbench(&["plot", s(&d)]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(err_line(&o).contains("nothing to plot"), "{}", err_line(&o));
+    let _ = std::fs::remove_dir_all(&d);
+}

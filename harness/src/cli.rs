@@ -118,6 +118,17 @@ yet are skipped with a note in DIR/README.md.")]
         /// Only these tables (comma-separated ids, see DIR/README.md).
         #[arg(long, value_delimiter = ',')]
         only: Vec<String>,
+        /// Measure only shard I of N of every experiment table (raw rows, no tables); the
+        /// tables come from `reproduce --merge`.
+        #[arg(long, value_name = "I/N", conflicts_with = "merge")]
+        shard: Option<String>,
+        /// Merge these shard output directories (of `reproduce --shard`) and write the tables.
+        #[arg(long, value_name = "SHARD_DIR", num_args = 1..)]
+        merge: Vec<std::path::PathBuf>,
+        /// Print the Slurm commands that run this reproduce as an N-task job array plus a
+        /// merge job (submit them, or copy them into your own scripts).
+        #[arg(long, value_name = "N")]
+        slurm: Option<usize>,
     },
     /// Redraw the plots of a bench output directory from its results.csv (and pairs.csv).
     #[command(after_help = "Example: tetbench plot out/example")]

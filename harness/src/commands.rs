@@ -145,7 +145,24 @@ pub fn run(cli: Cli) -> Result<()> {
             shards,
             no_plots,
         } => merge_cmd(&out, &shards, !no_plots),
-        Command::Reproduce { quick, out, only } => crate::reproduce::run(quick, &out, &only),
+        Command::Reproduce {
+            quick,
+            out,
+            only,
+            shard,
+            merge,
+            slurm,
+        } => {
+            if let Some(n) = slurm {
+                return slurm_commands(quick, &out, &only, n);
+            }
+            let sweep = match (shard, merge.is_empty()) {
+                (Some(s), _) => crate::papers::Sweep::Shard(crate::sweep::Shard::parse(&s)?),
+                (None, false) => crate::papers::Sweep::Merge(merge),
+                (None, true) => crate::papers::Sweep::Whole,
+            };
+            crate::reproduce::run(quick, &out, &only, sweep)
+        }
         Command::Plot { dir } => {
             let csv = dir.join("results.csv");
             let rows = rows::read_rows(&csv)?;
@@ -163,6 +180,37 @@ pub fn run(cli: Cli) -> Result<()> {
         }
         Command::Jbu(args) => crate::jbu::run(&args.to_plan(), &args.out),
     }
+}
+
+/// `reproduce --slurm N`: the sbatch commands of an N-task array and its merge job.
+fn slurm_commands(quick: bool, out: &std::path::Path, only: &[String], n: usize) -> Result<()> {
+    if n == 0 || n > 100_000 {
+        return Err(Error::Input(format!(
+            "--slurm {n}: the number of shards must be 1..100000"
+        )));
+    }
+    let exe = std::env::current_exe()
+        .map(|p| p.display().to_string())
+        .unwrap_or_else(|_| "tetbench".into());
+    let mut flags = String::new();
+    if quick {
+        flags.push_str(" --quick");
+    }
+    if !only.is_empty() {
+        flags.push_str(&format!(" --only {}", only.join(",")));
+    }
+    let o = out.display();
+    let shards: Vec<String> = (0..n).map(|i| format!("{o}/shard-{i}")).collect();
+    println!("# {n}-task array, then the merge once every task succeeded. Add -p <partition> --gres=gpu:1 for the GPU tables.");
+    println!(
+        "array=$(sbatch --parsable --array=0-{} --cpus-per-task=2 --wrap 'export RAYON_NUM_THREADS=$SLURM_CPUS_PER_TASK; {exe} reproduce{flags} --out {o}/shard-$SLURM_ARRAY_TASK_ID --shard $SLURM_ARRAY_TASK_ID/{n}')",
+        n - 1
+    );
+    println!(
+        "sbatch --dependency=afterok:$array --wrap '{exe} reproduce{flags} --out {o} --merge {}'",
+        shards.join(" ")
+    );
+    Ok(())
 }
 
 /// Prints `name: value` lines, or one JSON object.

@@ -244,9 +244,9 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<Outcome> {
         // The units of this dataset (variant × cell), their shards and whether measured.
         let kept: Vec<usize> = (0..exp.variants.len())
             .filter(|&v| {
-                !exp.variants[v]
+                exp.variants[v]
                     .max_tets
-                    .is_some_and(|m| mesh.num_tets() > m)
+                    .is_none_or(|m| mesh.num_tets() <= m)
             })
             .collect();
         let frames = (exp.warmup + exp.repeats.max(1)) as f64;
@@ -434,7 +434,7 @@ impl Prepared {
             device: renderer.device(),
             setup_ms,
             cpu_bytes_per_tet: per_tet(bytes),
-            cpu_peak_bytes_per_tet: per_tet(peak as isize),
+            cpu_peak_bytes_per_tet: per_tet(peak),
             gpu_bytes_per_tet: renderer.gpu_bytes() as f64 / tets,
             ..Default::default()
         };

@@ -22,6 +22,7 @@ use crate::measure::{self, Frames};
 use crate::meshes::{self, Source};
 use crate::progress;
 use crate::rows::{CsvSink, PairRow, Row};
+use crate::sweep::{self, Lock, Shard, ShardInfo};
 
 /// Bumped when the reference renderer's output changes, so old cache entries are not reused.
 const REFERENCE_VERSION: &str = "reference-exact-v1";
@@ -45,6 +46,15 @@ pub struct RunOptions {
     pub progress: bool,
     /// Label in front of the progress bar.
     pub title: String,
+    /// The part of the measurement matrix this run measures.
+    pub shard: Shard,
+    /// Measure only the rows not yet in `results.csv`.
+    pub resume: bool,
+    /// Start again in a directory that already holds results (they are removed).
+    pub force: bool,
+    /// The experiment's identity (blake3 of its file) written to `shard.txt`, checked by
+    /// `merge` and `--resume`.
+    pub identity: String,
 }
 
 impl RunOptions {
@@ -59,6 +69,10 @@ impl RunOptions {
             cache_dir,
             progress: true,
             title: exp.name.clone(),
+            shard: Shard::ALL,
+            resume: false,
+            force: false,
+            identity: format!("experiment {}", exp.name),
         }
     }
 }
@@ -120,23 +134,101 @@ pub fn preflight(exp: &Experiment, out: &Path) -> Result<()> {
     Ok(())
 }
 
-/// Runs the experiment, writing `results.csv` (and `pairs.csv` when pairs are asked for).
+/// Opens `results.csv` for this run: refuses a directory holding results unless resumed or
+/// forced, checks a resumed one is this experiment's (and shard's), cuts a torn last line.
+/// Returns the sink and the rows already measured.
+fn open_results(exp: &Experiment, opts: &RunOptions) -> Result<(CsvSink, Vec<Row>)> {
+    let csv_path = opts.out.join("results.csv");
+    let has_rows = std::fs::metadata(&csv_path).is_ok_and(|m| m.len() > 0);
+    let has_images = opts.out.join("images").exists();
+    if opts.resume {
+        if !exp.pairs.is_empty() {
+            return Err(Error::Input(
+                "--resume: experiments with [[pairs]] cannot be resumed yet (pair images are kept only while a dataset runs); run them again with --force".into(),
+            ));
+        }
+        if has_rows {
+            let here = ShardInfo::read(&opts.out)?;
+            match here {
+                Some(i) if i.experiment == opts.identity && i.shard == opts.shard => {}
+                Some(i) if i.experiment == opts.identity => {
+                    return Err(Error::Input(format!(
+                        "--resume: {} holds shard {}, not {}",
+                        opts.out.display(),
+                        i.shard,
+                        opts.shard
+                    )))
+                }
+                _ => {
+                    return Err(Error::Input(format!(
+                        "--resume: {} is from another experiment (or another experiment file version); refusing to mix them",
+                        csv_path.display()
+                    )))
+                }
+            }
+        }
+        let (rows, note) = sweep::existing_rows(&csv_path)?;
+        if let Some(n) = note {
+            eprintln!("tetbench: note: {n}");
+        }
+        return Ok((CsvSink::append(&csv_path)?, rows));
+    }
+    if (has_rows || has_images) && !opts.force {
+        return Err(Error::Input(format!(
+            "{} already holds results ({}); pass --resume to measure only the missing rows, or --force to discard them and start again",
+            opts.out.display(),
+            if has_rows { "results.csv" } else { "images/" }
+        )));
+    }
+    if opts.force {
+        for f in ["results.csv", "pairs.csv", sweep::SHARD_FILE] {
+            let _ = std::fs::remove_file(opts.out.join(f));
+        }
+        let _ = std::fs::remove_dir_all(opts.out.join("images"));
+    }
+    Ok((CsvSink::create(&csv_path)?, Vec::new()))
+}
+
+/// Runs the experiment (this run's shard of it), writing `results.csv` (and `pairs.csv` when
+/// pairs are asked for) and `shard.txt`.
 pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<Outcome> {
+    if opts.shard.count > 1 && !exp.pairs.is_empty() {
+        return Err(Error::Input(
+            "--shard: experiments with [[pairs]] cannot be sharded yet (both images of a pair must be measured in one run)".into(),
+        ));
+    }
     preflight(exp, &opts.out)?;
-    let mut csv = CsvSink::create(&opts.out.join("results.csv"))?;
+    let _lock = Lock::take(&opts.out)?;
+    sweep::clean_stale_tmp(&opts.out);
+    if opts.cache_dir.exists() && !opts.cache_dir.starts_with(&opts.out) {
+        sweep::clean_stale_tmp(&opts.cache_dir);
+    }
+    let (mut csv, done_rows) = open_results(exp, opts)?;
+    let done = sweep::keys(&done_rows);
     let mut pair_csv = if exp.pairs.is_empty() {
         None
     } else {
         Some(CsvSink::create(&opts.out.join("pairs.csv"))?)
     };
     write_meta(exp, opts)?;
+    let mut info = ShardInfo {
+        experiment: opts.identity.clone(),
+        shard: opts.shard,
+        version: env!("CARGO_PKG_VERSION").to_string(),
+        rows: None,
+    };
+    info.write(&opts.out)?;
 
     let cells = cells(exp);
     let refs = if exp.error { cells.len() } else { 0 };
     let total = exp.datasets.len() * (exp.variants.len() * cells.len() + refs);
+    let total = total.div_ceil(opts.shard.count);
     let bar = progress::bar(opts.progress, total as u64, &opts.title);
 
     let mut out = Outcome::default();
+    let (mut mine, mut all) = (0usize, 0usize);
+    let mut loads = vec![0.0; opts.shard.count];
+    out.rows = done_rows;
     // Warm the thread pool so its allocations are not counted as a renderer's.
     rayon::broadcast(|_| ());
 
@@ -149,9 +241,45 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<Outcome> {
                 o => o,
             })?;
         let hash = mesh_hash(&mesh);
+        // The units of this dataset (variant × cell), their shards and whether measured.
+        let kept: Vec<usize> = (0..exp.variants.len())
+            .filter(|&v| {
+                exp.variants[v]
+                    .max_tets
+                    .is_none_or(|m| mesh.num_tets() <= m)
+            })
+            .collect();
+        let frames = (exp.warmup + exp.repeats.max(1)) as f64;
+        let costs: Vec<f64> = kept
+            .iter()
+            .flat_map(|_| cells.iter())
+            .map(|c| mesh.num_tets() as f64 * c.size.0 as f64 * c.size.1 as f64 * frames)
+            .collect();
+        let owner = sweep::assign(&costs, &mut loads);
+        let is_mine = |k: usize, c: usize| owner[k * cells.len() + c] == opts.shard.index;
+        all += costs.len();
+        mine += owner.iter().filter(|&&s| s == opts.shard.index).count();
+        // A cell needs its reference when some unit of it is this shard's and not yet measured.
+        let key_of = |v: usize, c: &Cell| {
+            format!(
+                "{}|{}|{}|{}x{}|{}",
+                name,
+                exp.variants[v].label,
+                c.projection.name(),
+                c.size.0,
+                c.size.1,
+                c.view.id
+            )
+        };
+        let todo =
+            |k: usize, c: usize| is_mine(k, c) && !done.contains(&key_of(kept[k], &cells[c]));
         if exp.error {
+            let need: Vec<Cell> = (0..cells.len())
+                .filter(|&c| (0..kept.len()).any(|k| todo(k, c)))
+                .map(|c| cells[c].clone())
+                .collect();
             // Reference images first, so they never interleave with a measured renderer.
-            if !references(exp, opts, &mesh, &hash, &cells, &bar, &name, &mut out)? {
+            if !references(exp, opts, &mesh, &hash, &need, &bar, &name, &mut out)? {
                 break 'datasets;
             }
         }
@@ -161,7 +289,7 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<Outcome> {
             .flat_map(|p| [p.test.as_str(), p.reference.as_str()])
             .collect();
         let pair_dir = opts.out.join(".pairs");
-        for var in &exp.variants {
+        for (vi, var) in exp.variants.iter().enumerate() {
             if var.max_tets.is_some_and(|m| mesh.num_tets() > m) {
                 progress::note(
                     &bar,
@@ -174,9 +302,16 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<Outcome> {
                 );
                 continue;
             }
+            let k = kept.iter().position(|&x| x == vi).unwrap_or(0);
+            if !(0..cells.len()).any(|c| todo(k, c)) {
+                continue;
+            }
             bar.set_message(format!("{name}: {} setup", var.label));
             let mut prepared = Prepared::new(exp, var, &name, &mesh)?;
-            for cell in &cells {
+            for (ci, cell) in cells.iter().enumerate() {
+                if !todo(k, ci) {
+                    continue;
+                }
                 if measure::interrupted() {
                     out.interrupted = true;
                     break 'datasets;
@@ -208,6 +343,10 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<Outcome> {
         let _ = std::fs::remove_dir_all(&pair_dir);
     }
     bar.finish_and_clear();
+    if !out.interrupted {
+        info.rows = Some((mine, all));
+        info.write(&opts.out)?;
+    }
     Ok(out)
 }
 
@@ -270,7 +409,7 @@ impl Prepared {
         let mut renderer = render::make(&var.renderer, &var.options)?;
         let fresh = mesh.clone();
         let t0 = Instant::now();
-        let (prep, bytes, peak) = alloc::measure(|| renderer.prepare(&fresh, &exp.tf));
+        let (prep, bytes, peak) = alloc::measure(|| isolated(|| renderer.prepare(&fresh, &exp.tf)));
         let setup_ms = t0.elapsed().as_secs_f64() * 1e3;
         let tets = mesh.num_tets() as f64;
         let per_tet = |b: isize| {
@@ -295,7 +434,7 @@ impl Prepared {
             device: renderer.device(),
             setup_ms,
             cpu_bytes_per_tet: per_tet(bytes),
-            cpu_peak_bytes_per_tet: per_tet(peak as isize),
+            cpu_peak_bytes_per_tet: per_tet(peak),
             gpu_bytes_per_tet: renderer.gpu_bytes() as f64 / tets,
             ..Default::default()
         };
@@ -305,6 +444,45 @@ impl Prepared {
             failed: prep.err().map(|e| format!("prepare: {e}")),
             base,
         })
+    }
+}
+
+/// Test-only: `TETBENCH_TEST_PANIC=VARIANT@VIEW_ID` makes the renderer of that one cell panic
+/// inside `render`, to prove that a panicking renderer costs one failed row, not the sweep. Not
+/// for users; it is set only by the harness's tests.
+pub const TEST_PANIC_ENV: &str = "TETBENCH_TEST_PANIC";
+
+/// A renderer that panics when it renders (see [`TEST_PANIC_ENV`]).
+struct TestPanic<'a>(&'a mut dyn Renderer);
+
+impl Renderer for TestPanic<'_> {
+    fn name(&self) -> String {
+        self.0.name()
+    }
+    fn integrator_name(&self) -> String {
+        self.0.integrator_name()
+    }
+    fn prepare(&mut self, mesh: &Mesh, tf: &TransferFunction) -> Result<()> {
+        self.0.prepare(mesh, tf)
+    }
+    fn render(&mut self, _: &Mesh, _: &Camera) -> Result<algorithms::render::Frame> {
+        panic!("test-only renderer panic ({TEST_PANIC_ENV})")
+    }
+}
+
+/// Runs `f`, turning a panic inside it (a renderer's bug, a GPU device lost that wgpu reports
+/// by panicking) into an error carrying the panic's message, so one measurement fails alone.
+pub fn isolated<T>(f: impl FnOnce() -> Result<T>) -> Result<T> {
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)) {
+        Ok(r) => r,
+        Err(p) => {
+            let msg = p
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| p.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "unknown panic".to_string());
+            Err(Error::Internal(format!("panicked: {msg}")))
+        }
     }
 }
 
@@ -332,7 +510,16 @@ pub fn measure_cell(
                 warmup: exp.warmup,
                 repeats: exp.repeats,
             };
-            measure::measure(p.renderer.as_mut(), &p.mesh, &cam, frames)
+            let label = format!("{}@{}", p.base.variant, cell.view.id);
+            let renderer = p.renderer.as_mut();
+            let mesh = &p.mesh;
+            isolated(|| {
+                if std::env::var(TEST_PANIC_ENV).is_ok_and(|v| v == label) {
+                    let mut r = TestPanic(renderer);
+                    return measure::measure(&mut r, mesh, &cam, frames);
+                }
+                measure::measure(renderer, mesh, &cam, frames)
+            })
         }
     };
     let m = match result {

@@ -73,6 +73,34 @@ DIR/images/. Reference images are cached in DIR/.cache by content hash. Keys: do
         /// Do not draw plots.
         #[arg(long)]
         no_plots: bool,
+        /// Measure only shard I of N (0 <= I < N) of the measurement matrix, balanced by
+        /// estimated cost (tets x pixels x frames); merge the shards with `tetbench merge`.
+        #[arg(long, value_name = "I/N")]
+        shard: Option<String>,
+        /// Measure only the rows not yet in DIR/results.csv (a run that was interrupted).
+        #[arg(long, conflicts_with = "force")]
+        resume: bool,
+        /// Discard the results already in DIR and start again.
+        #[arg(long)]
+        force: bool,
+    },
+    /// Merge the directories of `tetbench bench --shard I/N` runs into one, and draw the plots.
+    #[command(
+        after_help = "Example: tetbench merge --out out/all out/shard0 out/shard1 out/shard2
+
+The shards must come from the same experiment file, the same N and the same tetbench version,
+and together hold every row exactly once; anything else is refused, naming the shard."
+    )]
+    Merge {
+        /// Output directory for the merged results.csv and plots.
+        #[arg(long)]
+        out: PathBuf,
+        /// The shard directories.
+        #[arg(required = true)]
+        shards: Vec<PathBuf>,
+        /// Do not draw plots.
+        #[arg(long)]
+        no_plots: bool,
     },
     /// Regenerate the papers' tables (PTINT Table 1, 2, Fig. 8; HAPT Tables 1-4) and their plots.
     #[command(after_help = "Example: tetbench reproduce --quick --out results-quick
@@ -90,6 +118,17 @@ yet are skipped with a note in DIR/README.md.")]
         /// Only these tables (comma-separated ids, see DIR/README.md).
         #[arg(long, value_delimiter = ',')]
         only: Vec<String>,
+        /// Measure only shard I of N of every experiment table (raw rows, no tables); the
+        /// tables come from `reproduce --merge`.
+        #[arg(long, value_name = "I/N", conflicts_with = "merge")]
+        shard: Option<String>,
+        /// Merge these shard output directories (of `reproduce --shard`) and write the tables.
+        #[arg(long, value_name = "SHARD_DIR", num_args = 1..)]
+        merge: Vec<std::path::PathBuf>,
+        /// Print the Slurm commands that run this reproduce as an N-task job array plus a
+        /// merge job (submit them, or copy them into your own scripts).
+        #[arg(long, value_name = "N")]
+        slurm: Option<usize>,
     },
     /// Redraw the plots of a bench output directory from its results.csv (and pairs.csv), or
     /// of a reproduce directory from its raw/<table>/ rows.

@@ -16,15 +16,37 @@ use crate::meshes::{load_mesh, parse_size};
 use crate::rows;
 use crate::table;
 
+/// Rows of the last bench or merge that failed; `main` turns a nonzero count into exit 3.
+pub static FAILED_ROWS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
+/// How `tetbench bench` runs, from its flags.
+pub struct BenchFlags<'a> {
+    pub config: &'a std::path::Path,
+    pub out: &'a std::path::Path,
+    pub plots: bool,
+    pub shard: Option<&'a str>,
+    pub resume: bool,
+    pub force: bool,
+}
+
 /// `tetbench bench`: validate everything first, then run, then plot.
-fn bench_cmd(config: &std::path::Path, out: &std::path::Path, plots: bool) -> Result<()> {
-    let exp = crate::experiment::load(config)?;
-    let opts = bench::RunOptions::new(&exp, out);
+fn bench_cmd(f: &BenchFlags) -> Result<()> {
+    let shard = match f.shard {
+        Some(s) => crate::sweep::Shard::parse(s)?,
+        None => crate::sweep::Shard::ALL,
+    };
+    let exp = crate::experiment::load(f.config)?;
+    let out = f.out;
+    let mut opts = bench::RunOptions::new(&exp, out);
+    opts.shard = shard;
+    opts.resume = f.resume;
+    opts.force = f.force;
+    opts.identity = crate::sweep::experiment_hash(f.config)?;
     let o = bench::run(&exp, &opts)?;
     let csv = out.join("results.csv");
     if o.interrupted {
         return Err(Error::Input(format!(
-            "interrupted: {} finished rows kept in {}",
+            "interrupted: {} finished rows kept in {} (continue with --resume)",
             o.rows.len(),
             csv.display()
         )));
@@ -38,11 +60,43 @@ fn bench_cmd(config: &std::path::Path, out: &std::path::Path, plots: bool) -> Re
         "reference_images: {} rendered, {} from cache",
         o.reference_renders, o.reference_hits
     );
-    if plots {
+    // A shard's plots would show a part of the sweep: `merge` draws them.
+    if f.plots && shard.count == 1 {
         for p in crate::plots::all(&o.rows, &o.pairs, out)? {
             println!("plot: {}", p.display());
         }
     }
+    report_failed(&o.rows);
+    Ok(())
+}
+
+/// Says how many rows failed (and sets [`FAILED_ROWS`] for the exit status).
+fn report_failed(rows: &[rows::Row]) {
+    let failed: Vec<&rows::Row> = rows.iter().filter(|r| crate::sweep::failed(r)).collect();
+    if let Some(first) = failed.first() {
+        eprintln!(
+            "tetbench: {} of {} rows failed (their note column says why; first: {} {}: {})",
+            failed.len(),
+            rows.len(),
+            first.dataset,
+            first.variant,
+            first.note
+        );
+    }
+    FAILED_ROWS.store(failed.len(), std::sync::atomic::Ordering::SeqCst);
+}
+
+/// `tetbench merge`: check and merge shard directories, then plot.
+fn merge_cmd(out: &std::path::Path, shards: &[std::path::PathBuf], plots: bool) -> Result<()> {
+    let rows = crate::merge::merge(out, shards)?;
+    println!("rows: {}", rows.len());
+    println!("results: {}", out.join("results.csv").display());
+    if plots {
+        for p in crate::plots::all(&rows, &[], out)? {
+            println!("plot: {}", p.display());
+        }
+    }
+    report_failed(&rows);
     Ok(())
 }
 
@@ -90,8 +144,40 @@ pub fn run(cli: Cli) -> Result<()> {
             config,
             out,
             no_plots,
-        } => bench_cmd(&config, &out, !no_plots),
-        Command::Reproduce { quick, out, only } => crate::reproduce::run(quick, &out, &only),
+            shard,
+            resume,
+            force,
+        } => bench_cmd(&BenchFlags {
+            config: &config,
+            out: &out,
+            plots: !no_plots,
+            shard: shard.as_deref(),
+            resume,
+            force,
+        }),
+        Command::Merge {
+            out,
+            shards,
+            no_plots,
+        } => merge_cmd(&out, &shards, !no_plots),
+        Command::Reproduce {
+            quick,
+            out,
+            only,
+            shard,
+            merge,
+            slurm,
+        } => {
+            if let Some(n) = slurm {
+                return slurm_commands(quick, &out, &only, n);
+            }
+            let sweep = match (shard, merge.is_empty()) {
+                (Some(s), _) => crate::papers::Sweep::Shard(crate::sweep::Shard::parse(&s)?),
+                (None, false) => crate::papers::Sweep::Merge(merge),
+                (None, true) => crate::papers::Sweep::Whole,
+            };
+            crate::reproduce::run(quick, &out, &only, sweep)
+        }
         Command::Plot { dir } if dir.join("raw").is_dir() => {
             // A `reproduce` directory: every table's plots from its raw rows.
             for p in crate::papers::replot_all(&dir)? {
@@ -100,7 +186,14 @@ pub fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Plot { dir } => {
-            let rows = rows::read_rows(&dir.join("results.csv"))?;
+            let csv = dir.join("results.csv");
+            let rows = rows::read_rows(&csv)?;
+            if rows.is_empty() {
+                return Err(Error::Input(format!(
+                    "{}: no rows, nothing to plot",
+                    csv.display()
+                )));
+            }
             let pairs = rows::read_pairs(&dir.join("pairs.csv"))?;
             for p in crate::plots::all(&rows, &pairs, &dir)? {
                 println!("plot: {}", p.display());
@@ -109,6 +202,37 @@ pub fn run(cli: Cli) -> Result<()> {
         }
         Command::Jbu(args) => crate::jbu::run(&args.to_plan(), &args.out),
     }
+}
+
+/// `reproduce --slurm N`: the sbatch commands of an N-task array and its merge job.
+fn slurm_commands(quick: bool, out: &std::path::Path, only: &[String], n: usize) -> Result<()> {
+    if n == 0 || n > 100_000 {
+        return Err(Error::Input(format!(
+            "--slurm {n}: the number of shards must be 1..100000"
+        )));
+    }
+    let exe = std::env::current_exe()
+        .map(|p| p.display().to_string())
+        .unwrap_or_else(|_| "tetbench".into());
+    let mut flags = String::new();
+    if quick {
+        flags.push_str(" --quick");
+    }
+    if !only.is_empty() {
+        flags.push_str(&format!(" --only {}", only.join(",")));
+    }
+    let o = out.display();
+    let shards: Vec<String> = (0..n).map(|i| format!("{o}/shard-{i}")).collect();
+    println!("# {n}-task array, then the merge once every task succeeded. Add -p <partition> --gres=gpu:1 for the GPU tables.");
+    println!(
+        "array=$(sbatch --parsable --array=0-{} --cpus-per-task=2 --wrap 'export RAYON_NUM_THREADS=$SLURM_CPUS_PER_TASK; {exe} reproduce{flags} --out {o}/shard-$SLURM_ARRAY_TASK_ID --shard $SLURM_ARRAY_TASK_ID/{n}')",
+        n - 1
+    );
+    println!(
+        "sbatch --dependency=afterok:$array --wrap '{exe} reproduce{flags} --out {o} --merge {}'",
+        shards.join(" ")
+    );
+    Ok(())
 }
 
 /// Prints `name: value` lines, or one JSON object.

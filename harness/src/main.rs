@@ -29,6 +29,11 @@ fn main() -> ExitCode {
         );
     });
     match tetbench::commands::run(cli) {
+        // Some rows failed (each is in results.csv with its message): the run went on, but
+        // says so.
+        Ok(()) if tetbench::commands::FAILED_ROWS.load(std::sync::atomic::Ordering::SeqCst) > 0 => {
+            ExitCode::from(3)
+        }
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("tetbench: {e}");

@@ -106,12 +106,13 @@ fn run_one(t: &dyn PaperTable, ctx: &Ctx, machine: &str, date: &str) -> Result<S
 }
 
 /// Runs every table (or those in `only`), writing tables, plots and `DIR/README.md`.
-pub fn run(quick: bool, out: &Path, only: &[String]) -> Result<()> {
+pub fn run(quick: bool, out: &Path, only: &[String], sweep: crate::papers::Sweep) -> Result<()> {
     let tables = select(only)?;
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
     let ctx = Ctx {
         quick,
         out: out.to_path_buf(),
+        sweep,
     };
     let machine = crate::sysinfo::machine();
     let date = crate::sysinfo::now_utc();

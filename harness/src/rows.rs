@@ -72,25 +72,61 @@ pub struct PairRow {
     pub avg_err_pct: f64,
 }
 
-/// A CSV file written one row at a time, each row flushed as it is written.
+/// A CSV file written one complete row at a time: each row is formatted in memory and appended
+/// with one write; if that write fails (a full disk), the file is cut back to its last complete
+/// row, so a reader never sees a torn line. The error names the file.
 pub struct CsvSink {
     path: PathBuf,
-    w: csv::Writer<File>,
+    f: File,
+    len: u64,
+    header: bool,
 }
 
 impl CsvSink {
+    /// A new, empty file (the header is written with the first row).
     pub fn create(path: &Path) -> Result<CsvSink> {
         let f = File::create(path).map_err(|e| Error::io(path, e))?;
         Ok(CsvSink {
             path: path.to_path_buf(),
-            w: csv::Writer::from_writer(f),
+            f,
+            len: 0,
+            header: true,
+        })
+    }
+
+    /// Appends to an existing file of complete rows (a resumed run); a header is written only
+    /// when the file is empty.
+    pub fn append(path: &Path) -> Result<CsvSink> {
+        let f = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(path)
+            .map_err(|e| Error::io(path, e))?;
+        let len = f.metadata().map_err(|e| Error::io(path, e))?.len();
+        Ok(CsvSink {
+            path: path.to_path_buf(),
+            f,
+            len,
+            header: len == 0,
         })
     }
 
     pub fn write<T: Serialize>(&mut self, row: &T) -> Result<()> {
         let err = |e: &dyn std::fmt::Display| Error::Io(format!("{}: {e}", self.path.display()));
-        self.w.serialize(row).map_err(|e| err(&e))?;
-        self.w.flush().map_err(|e| err(&e))
+        let mut w = csv::WriterBuilder::new()
+            .has_headers(self.header)
+            .from_writer(Vec::new());
+        w.serialize(row).map_err(|e| err(&e))?;
+        let bytes = w.into_inner().map_err(|e| err(&e.error().to_string()))?;
+        use std::io::Write;
+        if let Err(e) = self.f.write_all(&bytes).and_then(|_| self.f.flush()) {
+            // Rows whole or not at all: cut back what part of this one reached the file.
+            let _ = self.f.set_len(self.len);
+            return Err(err(&e));
+        }
+        self.len += bytes.len() as u64;
+        self.header = false;
+        Ok(())
     }
 }
 
@@ -115,4 +151,32 @@ pub fn read_pairs(path: &Path) -> Result<Vec<PairRow>> {
     r.deserialize()
         .map(|x| x.map_err(|e| Error::Input(format!("{}: {e}", path.display()))))
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_full_disk_gives_one_line_naming_the_file_and_no_torn_row() {
+        // /dev/full refuses every write with ENOSPC.
+        let p = Path::new("/dev/full");
+        if !p.exists() {
+            return;
+        }
+        let mut w = CsvSink::create(p).unwrap();
+        let e = w.write(&Row::default()).unwrap_err().to_string();
+        assert!(e.starts_with("/dev/full: ") && !e.contains('\n'), "{e}");
+        assert!(e.to_lowercase().contains("space"), "{e}");
+        // A real file: whole rows, appended, a header only once.
+        let d = std::env::temp_dir().join(format!("tetbench-rows-{}.csv", std::process::id()));
+        let _ = std::fs::remove_file(&d);
+        CsvSink::create(&d).unwrap().write(&Row::default()).unwrap();
+        CsvSink::append(&d).unwrap().write(&Row::default()).unwrap();
+        let text = std::fs::read_to_string(&d).unwrap();
+        assert_eq!(text.lines().count(), 3);
+        assert!(text.ends_with('\n'));
+        assert_eq!(read_rows(&d).unwrap().len(), 2);
+        let _ = std::fs::remove_file(&d);
+    }
 }

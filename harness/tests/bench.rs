@@ -142,13 +142,14 @@ fn tiny_bench_writes_rows_caches_references_and_plots() {
     // Two mesh sizes: the throughput plot is drawn.
     assert!(out.join("tets_per_s_vs_size.png").exists());
 
-    // Second run: every reference image from the cache.
+    // Second run (forced: the directory holds results): every reference image from the cache.
     let o = tetbench(&[
         "bench",
         cfg.to_str().unwrap(),
         "--out",
         out.to_str().unwrap(),
         "--no-plots",
+        "--force",
     ]);
     assert!(o.status.success());
     let stdout = String::from_utf8_lossy(&o.stdout).to_string();

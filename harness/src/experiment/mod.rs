@@ -299,7 +299,28 @@ fn key_err(key: impl fmt::Display, e: Error) -> Error {
 }
 
 /// Checks every name and value of a parsed config and expands it.
+/// Bounds on the experiment file's counts, so that a typo cannot ask for a billion frames.
+pub const MAX_VIEWS: usize = 10_000;
+pub const MAX_FRAMES: usize = 10_000;
+pub const MAX_LIST: usize = 1_000;
+
+/// Refuses `n` above `max`, naming the key and the bound.
+pub(crate) fn bound(key: &str, n: usize, max: usize) -> Result<()> {
+    if n > max {
+        return Err(Error::Input(format!(
+            "key `{key}`: {n} is more than the bound {max}"
+        )));
+    }
+    Ok(())
+}
+
 pub fn validate(cfg: Config, base: &Path) -> Result<Experiment> {
+    bound("datasets", cfg.datasets.len(), MAX_LIST)?;
+    bound("renderers", cfg.renderers.len(), MAX_LIST)?;
+    bound("sizes", cfg.sizes.as_ref().map_or(0, Vec::len), MAX_LIST)?;
+    bound("pairs", cfg.pairs.len(), MAX_LIST)?;
+    bound("repeats", cfg.repeats.unwrap_or(0), MAX_FRAMES)?;
+    bound("warmup", cfg.warmup.unwrap_or(0), MAX_FRAMES)?;
     if cfg.datasets.is_empty() {
         return Err(Error::Input(
             "key `datasets`: list at least one dataset".into(),
@@ -356,6 +377,11 @@ pub fn validate(cfg: Config, base: &Path) -> Result<Experiment> {
             v
         }
     };
+    bound(
+        "views × sizes × projection (cells per variant)",
+        views.len() * sizes.len() * projections.len(),
+        1_000_000,
+    )?;
     let tf_name = cfg.tf.clone().unwrap_or_else(|| "default".to_string());
     let tf_path = base.join(&tf_name);
     let tf = if TransferFunction::preset(&tf_name).is_none() && tf_path.exists() {

@@ -3,6 +3,11 @@
 use super::*;
 
 pub(super) fn expand_views(v: &ViewsSpec) -> Result<Vec<ViewItem>> {
+    bound("views.named", v.named.len(), MAX_VIEWS)?;
+    bound("views.fibonacci", v.fibonacci, MAX_VIEWS)?;
+    if let Some(r) = &v.rotate {
+        bound("views.rotate.frames", r.frames, MAX_VIEWS)?;
+    }
     let mut out = Vec::new();
     for (i, s) in v.named.iter().enumerate() {
         let view = View::parse(s).map_err(|e| key_err(format!("views.named[{i}]"), e))?;

@@ -49,6 +49,9 @@ impl PaperTable for Pt {
         "CC against BCC sampling at equal information, rendered by projected tetrahedra with the implicit BCC order; error against a ground truth integrated from the analytic field."
     }
     fn run(&self, ctx: &Ctx) -> Result<Done> {
+        if let Some(d) = ctx.skip_unsharded() {
+            return Ok(d);
+        }
         let (table, plots) = crate::bcc::pt_table(ctx.quick, &ctx.out)?;
         Ok(Done::Table { table, plots })
     }
@@ -99,6 +102,9 @@ impl PaperTable for Reconstruction {
         "Reconstruction schemes for ray casting a regular BCC volume against trilinear on CC: time and error per scheme (BCC paper Fig. 9)."
     }
     fn run(&self, ctx: &Ctx) -> Result<Done> {
+        if let Some(d) = ctx.skip_unsharded() {
+            return Ok(d);
+        }
         let (table, plots) = crate::bcc::recon_table(ctx.quick, &ctx.out)?;
         Ok(Done::Table { table, plots })
     }

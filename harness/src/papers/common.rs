@@ -432,7 +432,34 @@ pub(crate) fn run_experiment(
     let mut opts = bench::RunOptions::new(&exp, &raw);
     opts.cache_dir = ctx.out.join(".cache");
     opts.title = t.id().to_string();
-    let o = bench::run(&exp, &opts)?;
+    // `reproduce` regenerates its tables: the raw rows of an earlier run are replaced.
+    opts.force = true;
+    opts.identity = blake3::hash(format!("{cfg:?}").as_bytes())
+        .to_hex()
+        .to_string();
+    let o = match &ctx.sweep {
+        super::Sweep::Whole => bench::run(&exp, &opts)?,
+        super::Sweep::Shard(s) => {
+            opts.shard = *s;
+            let o = bench::run(&exp, &opts)?;
+            if !o.interrupted {
+                return Ok(Done::Files(format!(
+                    "shard {s}: {} rows in raw/{}/results.csv",
+                    o.rows.len(),
+                    t.id()
+                )));
+            }
+            o
+        }
+        super::Sweep::Merge(dirs) => {
+            let parts: Vec<std::path::PathBuf> =
+                dirs.iter().map(|d| d.join("raw").join(t.id())).collect();
+            Outcome {
+                rows: crate::merge::merge(&raw, &parts)?,
+                ..Default::default()
+            }
+        }
+    };
     if o.interrupted {
         return Err(algorithms::Error::Input(format!(
             "interrupted during {}: finished rows kept in {}",

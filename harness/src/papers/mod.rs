@@ -57,6 +57,29 @@ pub struct Ctx {
     pub quick: bool,
     /// The output directory (`DIR`): tables, plots, `raw/<id>/`, the shared `.cache/`.
     pub out: PathBuf,
+    /// Whole, one shard of each experiment table, or the merge of shard directories.
+    pub sweep: Sweep,
+}
+
+/// How `reproduce` runs the experiment tables.
+#[derive(Clone, Debug)]
+pub enum Sweep {
+    /// Every row here.
+    Whole,
+    /// `--shard I/N`: this shard of every experiment table's rows, under `DIR/raw/<id>/`; no
+    /// tables. The tables that are not experiments are left to the merge.
+    Shard(crate::sweep::Shard),
+    /// `--merge`: the rows of the shard directories' `raw/<id>/`, checked and merged, then
+    /// the tables; the tables that are not experiments are run here.
+    Merge(Vec<PathBuf>),
+}
+
+impl Ctx {
+    /// A table that is not an experiment skips a shard run (the merge runs it).
+    pub fn skip_unsharded(&self) -> Option<Done> {
+        matches!(self.sweep, Sweep::Shard(_))
+            .then(|| Done::Skipped("not sharded: run by `reproduce --merge`".into()))
+    }
 }
 
 /// What running a table gave.

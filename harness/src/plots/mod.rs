@@ -19,21 +19,42 @@ type PResult = std::result::Result<(), Box<dyn std::error::Error>>;
 
 const SIZE: (u32, u32) = (960, 640);
 
+/// `DIR/.STEM.tmpPID.EXT`: a hidden sibling with the same extension (the backends pick the
+/// format from it); `sweep::clean_stale_tmp` removes those a killed run left.
+fn tmp_sibling(p: &Path) -> PathBuf {
+    let stem = p.file_stem().unwrap_or_default().to_string_lossy();
+    let ext = p.extension().unwrap_or_default().to_string_lossy();
+    p.with_file_name(format!(".{stem}.tmp{}.{ext}", std::process::id()))
+}
+
 fn plot_err(p: &Path, e: Box<dyn std::error::Error>) -> Error {
-    Error::Internal(format!("plot {}: {e}", p.display()))
+    // Almost always the file system (a full disk): one line naming the file.
+    Error::Io(format!("{}: {e}", p.display()))
 }
 
 macro_rules! draw_both {
     ($stem:expr, $func:ident, $($arg:expr),*) => {{
         let png = PathBuf::from(format!("{}.png", $stem.display()));
         let svg = PathBuf::from(format!("{}.svg", $stem.display()));
-        {
-            let root = BitMapBackend::new(&png, SIZE).into_drawing_area();
-            $func(root, $($arg),*).map_err(|e| plot_err(&png, e))?;
-        }
-        {
-            let root = SVGBackend::new(&svg, SIZE).into_drawing_area();
-            $func(root, $($arg),*).map_err(|e| plot_err(&svg, e))?;
+        // Drawn into hidden temporary siblings and renamed into place: a failure (a full
+        // disk) never leaves a cut plot.
+        let (tpng, tsvg) = (tmp_sibling(&png), tmp_sibling(&svg));
+        let drawn = (|| -> Result<()> {
+            {
+                let root = BitMapBackend::new(&tpng, SIZE).into_drawing_area();
+                $func(root, $($arg),*).map_err(|e| plot_err(&png, e))?;
+            }
+            {
+                let root = SVGBackend::new(&tsvg, SIZE).into_drawing_area();
+                $func(root, $($arg),*).map_err(|e| plot_err(&svg, e))?;
+            }
+            std::fs::rename(&tpng, &png).map_err(|e| Error::io(&png, e))?;
+            std::fs::rename(&tsvg, &svg).map_err(|e| Error::io(&svg, e))
+        })();
+        if let Err(e) = drawn {
+            let _ = std::fs::remove_file(&tpng);
+            let _ = std::fs::remove_file(&tsvg);
+            return Err(e);
         }
         vec![png, svg]
     }};

@@ -1,0 +1,338 @@
+//! Sweeps that outgrow one run (#17, #19): shards merged equal the unsharded run, a killed run
+//! resumed ends with the same rows and remeasures none, a panicking renderer costs one row,
+//! finished results are never destroyed silently, bad shard input gets one line.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::time::{Duration, Instant};
+
+fn tetbench(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_tetbench"))
+        .args(args)
+        .output()
+        .expect("run tetbench")
+}
+
+fn tmpdir(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("tetbench-sweep-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn err_line(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr)
+        .lines()
+        .filter(|l| l.starts_with("tetbench:"))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+const TINY: &str = r#"
+name = "tiny-sweep"
+datasets = ["spx:1500", { mesh = "torus", tets = 2000, label = "torus-2k" }]
+renderers = [{ name = "raycast", integrators = ["partial", "average"] }, { name = "reference" }]
+sizes = ["24x24", "40x40"]
+repeats = 1
+warmup = 0
+[views]
+named = ["0,0", "90,30", "45,10"]
+"#;
+
+fn write_exp(d: &Path, text: &str) -> PathBuf {
+    let p = d.join("exp.toml");
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// key -> (rmse, whole record) of a results.csv.
+fn rows(p: &Path) -> BTreeMap<String, (f64, Vec<String>)> {
+    let mut r = csv::Reader::from_path(p).unwrap();
+    let h: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
+    let col = |n: &str| h.iter().position(|x| x == n).unwrap();
+    let (ds, var, proj, w, hh, view, rmse) = (
+        col("dataset"),
+        col("variant"),
+        col("projection"),
+        col("width"),
+        col("height"),
+        col("view_id"),
+        col("rmse"),
+    );
+    let mut m = BTreeMap::new();
+    for rec in r.records() {
+        let rec: Vec<String> = rec.unwrap().iter().map(String::from).collect();
+        let key = format!(
+            "{}|{}|{}|{}x{}|{}",
+            rec[ds], rec[var], rec[proj], rec[w], rec[hh], rec[view]
+        );
+        let e: f64 = rec[rmse].parse().unwrap_or(f64::NAN);
+        assert!(m.insert(key.clone(), (e, rec)).is_none(), "doubled {key}");
+    }
+    m
+}
+
+fn same_rows(a: &Path, b: &Path) {
+    let (ra, rb) = (rows(a), rows(b));
+    assert_eq!(
+        ra.keys().collect::<Vec<_>>(),
+        rb.keys().collect::<Vec<_>>(),
+        "{} vs {}",
+        a.display(),
+        b.display()
+    );
+    for (k, (ea, _)) in &ra {
+        let eb = rb[k].0;
+        assert!(
+            (ea - eb).abs() <= 1e-9 || (ea.is_nan() && eb.is_nan()),
+            "{k}: rmse {ea} vs {eb}"
+        );
+    }
+}
+
+#[test]
+fn shards_merged_equal_the_unsharded_run() {
+    let d = tmpdir("shards");
+    let exp = write_exp(&d, TINY);
+    let full = d.join("full");
+    let o = tetbench(&["bench", s(&exp), "--out", s(&full), "--no-plots"]);
+    assert!(o.status.success(), "{}", err_line(&o));
+    let mut dirs = Vec::new();
+    let mut counts = Vec::new();
+    for i in 0..3 {
+        let sd = d.join(format!("s{i}"));
+        let o = tetbench(&[
+            "bench",
+            s(&exp),
+            "--out",
+            s(&sd),
+            "--shard",
+            &format!("{i}/3"),
+        ]);
+        assert!(o.status.success(), "{}", err_line(&o));
+        counts.push(rows(&sd.join("results.csv")).len());
+        dirs.push(sd);
+    }
+    // 2 datasets x 3 variants x 2 sizes x 3 views, spread over the three shards.
+    assert_eq!(counts.iter().sum::<usize>(), 36, "{counts:?}");
+    assert!(counts.iter().all(|&c| c > 0), "{counts:?}");
+    let merged = d.join("merged");
+    let mut args = vec!["merge", "--out", s(&merged)];
+    args.extend(dirs.iter().map(|p| s(p)));
+    let o = tetbench(&args);
+    assert!(o.status.success(), "{}", err_line(&o));
+    same_rows(&full.join("results.csv"), &merged.join("results.csv"));
+    assert!(merged.join("speed_vs_error.svg").exists());
+
+    // A missing shard, a doubled one, and a shard of another experiment file are refused.
+    let o = tetbench(&["merge", "--out", s(&d.join("m2")), s(&dirs[0]), s(&dirs[1])]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(err_line(&o).contains("2/3 is missing"), "{}", err_line(&o));
+    let o = tetbench(&[
+        "merge",
+        "--out",
+        s(&d.join("m3")),
+        s(&dirs[0]),
+        s(&dirs[1]),
+        s(&dirs[1]),
+    ]);
+    assert!(err_line(&o).contains("given twice"), "{}", err_line(&o));
+    let other = write_exp(&d, &TINY.replace("tiny-sweep", "tiny-other"));
+    let odd = d.join("odd");
+    let o = tetbench(&["bench", s(&other), "--out", s(&odd), "--shard", "2/3"]);
+    assert!(o.status.success(), "{}", err_line(&o));
+    let o = tetbench(&[
+        "merge",
+        "--out",
+        s(&d.join("m4")),
+        s(&dirs[0]),
+        s(&dirs[1]),
+        s(&odd),
+    ]);
+    let e = err_line(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains(s(&odd)) && e.contains("experiment file") && e.lines().count() == 1,
+        "{e}"
+    );
+    // --resume against another experiment's results is refused.
+    let o = tetbench(&["bench", s(&other), "--out", s(&full), "--resume"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        err_line(&o).contains("another experiment"),
+        "{}",
+        err_line(&o)
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn bad_shards_get_one_line() {
+    let d = tmpdir("badshard");
+    let exp = write_exp(&d, TINY);
+    for bad in ["3/3", "0/0", "a/b"] {
+        let o = tetbench(&["bench", s(&exp), "--out", s(&d.join("x")), "--shard", bad]);
+        let e = err_line(&o);
+        assert_eq!(o.status.code(), Some(2), "{bad}: {e}");
+        assert!(e.contains(bad) && e.lines().count() == 1, "{bad}: {e}");
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn a_panicking_renderer_costs_one_row() {
+    let d = tmpdir("panic");
+    let exp = write_exp(
+        &d,
+        &TINY
+            .replace(
+                r#", { mesh = "torus", tets = 2000, label = "torus-2k" }"#,
+                "",
+            )
+            .replace(r#"["24x24", "40x40"]"#, r#"["24x24"]"#),
+    );
+    let out = d.join("out");
+    let o = Command::new(env!("CARGO_BIN_EXE_tetbench"))
+        .args(["bench", s(&exp), "--out", s(&out), "--no-plots"])
+        .env("TETBENCH_TEST_PANIC", "raycast/average@named:1")
+        .output()
+        .unwrap();
+    // Exit 3: the sweep finished, some rows failed.
+    assert_eq!(o.status.code(), Some(3), "{}", err_line(&o));
+    assert!(
+        err_line(&o).contains("1 of 9 rows failed"),
+        "{}",
+        err_line(&o)
+    );
+    let r = rows(&out.join("results.csv"));
+    assert_eq!(r.len(), 9);
+    let mut r2 = csv::Reader::from_path(out.join("results.csv")).unwrap();
+    let h = r2.headers().unwrap().clone();
+    let note = h.iter().position(|x| x == "note").unwrap();
+    let total = h.iter().position(|x| x == "total_ms").unwrap();
+    let failed: Vec<&Vec<String>> = r
+        .values()
+        .map(|x| &x.1)
+        .filter(|x| x[total] == "NaN")
+        .collect();
+    assert_eq!(failed.len(), 1);
+    assert!(failed[0][note].contains("panicked: test-only renderer panic"));
+    assert!(r
+        .values()
+        .filter(|x| x.1[total] != "NaN")
+        .all(|x| x.0.is_finite()));
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn killed_run_resumes_to_the_same_rows_remeasuring_none() {
+    let d = tmpdir("resume");
+    // Bigger images so that the run is still going when it is killed.
+    let exp = write_exp(
+        &d,
+        &TINY.replace(r#"["24x24", "40x40"]"#, r#"["64x64", "96x96"]"#),
+    );
+    let full = d.join("full");
+    let o = tetbench(&["bench", s(&exp), "--out", s(&full), "--no-plots"]);
+    assert!(o.status.success(), "{}", err_line(&o));
+
+    let out = d.join("out");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_tetbench"))
+        .args(["bench", s(&exp), "--out", s(&out), "--no-plots"])
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let csv = out.join("results.csv");
+    let t0 = Instant::now();
+    loop {
+        let n = std::fs::read_to_string(&csv)
+            .map(|t| t.lines().count())
+            .unwrap_or(0);
+        if n >= 6 || t0.elapsed() > Duration::from_secs(300) {
+            break;
+        }
+        if child.try_wait().unwrap().is_some() {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    child.kill().unwrap(); // SIGKILL
+    child.wait().unwrap();
+    // A torn last line, as a kill in the middle of a write leaves it.
+    let mut text = std::fs::read_to_string(&csv).unwrap();
+    let before: Vec<String> = text.lines().skip(1).map(String::from).collect();
+    assert!(before.len() < 36, "the run finished before it was killed");
+    text.push_str("spx:1500,1480,462,raycast");
+    std::fs::write(&csv, &text).unwrap();
+
+    // Into the same directory without --resume: refused, nothing destroyed.
+    let o = tetbench(&["bench", s(&exp), "--out", s(&out), "--no-plots"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        err_line(&o).contains("--resume") && err_line(&o).contains("--force"),
+        "{}",
+        err_line(&o)
+    );
+    assert_eq!(std::fs::read_to_string(&csv).unwrap(), text);
+
+    let o = tetbench(&["bench", s(&exp), "--out", s(&out), "--no-plots", "--resume"]);
+    assert!(o.status.success(), "{}", err_line(&o));
+    assert!(err_line(&o).contains("torn last line"), "{}", err_line(&o));
+    same_rows(&full.join("results.csv"), &csv);
+    // The finished rows are the same lines, byte for byte: none was measured again.
+    let after = std::fs::read_to_string(&csv).unwrap();
+    let after: Vec<&str> = after.lines().skip(1).collect();
+    assert_eq!(&after[..before.len()], &before[..]);
+    // Resuming a finished run measures nothing.
+    let o = tetbench(&["bench", s(&exp), "--out", s(&out), "--no-plots", "--resume"]);
+    assert!(o.status.success());
+    assert!(
+        String::from_utf8_lossy(&o.stdout).contains("reference_images: 0 rendered, 0 from cache")
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn a_second_run_into_one_out_is_refused_by_the_lock() {
+    let d = tmpdir("lock");
+    let exp = write_exp(&d, TINY);
+    let out = d.join("out");
+    std::fs::create_dir_all(&out).unwrap();
+    // A live process (this test) holds the lock.
+    std::fs::write(out.join(".lock"), format!("{}\n", std::process::id())).unwrap();
+    let o = tetbench(&["bench", s(&exp), "--out", s(&out), "--no-plots"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        err_line(&o).contains("another tetbench run"),
+        "{}",
+        err_line(&o)
+    );
+    // A stale lock (its process is gone) and stale temporary files are cleaned up.
+    std::fs::write(out.join(".lock"), "999999999\n").unwrap();
+    std::fs::create_dir_all(out.join(".cache")).unwrap();
+    std::fs::write(out.join(".cache/.ref-x.exr.tmp999999999"), b"half").unwrap();
+    let o = tetbench(&["bench", s(&exp), "--out", s(&out), "--no-plots", "--force"]);
+    assert!(o.status.success(), "{}", err_line(&o));
+    assert!(!out.join(".lock").exists());
+    assert!(!out.join(".cache/.ref-x.exr.tmp999999999").exists());
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn plot_on_an_empty_or_header_only_csv_says_nothing_to_plot() {
+    let d = tmpdir("emptyplot");
+    std::fs::write(d.join("results.csv"), b"").unwrap();
+    let o = tetbench(&["plot", s(&d)]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(err_line(&o).contains("nothing to plot"), "{}", err_line(&o));
+    std::fs::write(d.join("results.csv"), b"dataset,tets\n").unwrap();
+    let o = tetbench(&["plot", s(&d)]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(err_line(&o).contains("nothing to plot"), "{}", err_line(&o));
+    let _ = std::fs::remove_dir_all(&d);
+}

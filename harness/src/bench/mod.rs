@@ -25,6 +25,10 @@ use crate::rows::{CsvSink, PairRow, Row};
 use crate::sweep::{self, Lock, Shard, ShardInfo};
 
 /// Bumped when the reference renderer's output changes, so old cache entries are not reused.
+mod images;
+use images::{compare_pairs, image_stem, ref_path, save_images};
+pub use images::{mesh_hash, sanitize};
+
 const REFERENCE_VERSION: &str = "reference-exact-v1";
 
 /// What a run produced.
@@ -570,164 +574,6 @@ pub fn measure_cell(
         }
     }
     Ok((row, Some(m.image)))
-}
-
-/// With `save_images`: the image as EXR and PNG under `DIR/images/<dataset>/`, and the cached
-/// reference beside it as PNG.
-fn save_images(
-    exp: &Experiment,
-    opts: &RunOptions,
-    var: &Variant,
-    dataset: &str,
-    cell: &Cell,
-    img: &Image,
-    reference: Option<&Path>,
-) -> Result<()> {
-    if !exp.save_images {
-        return Ok(());
-    }
-    let dir = opts.out.join("images").join(sanitize(dataset));
-    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
-    let stem = image_stem(&var.label, cell);
-    img.write(&dir.join(format!("{stem}.exr")))?;
-    img.write(&dir.join(format!("{stem}.png")))?;
-    if let Some(p) = reference {
-        let rp = dir.join(format!("{}.png", image_stem("reference-cached", cell)));
-        if !rp.exists() {
-            Image::read(p)?.write(&rp)?;
-        }
-    }
-    Ok(())
-}
-
-/// The pairs of one dataset, image against image (cells where either image is missing give
-/// no row).
-fn compare_pairs(
-    exp: &Experiment,
-    cells: &[Cell],
-    pair_dir: &Path,
-    dataset: &str,
-    tets: usize,
-) -> Vec<PairRow> {
-    let mut out = Vec::new();
-    for p in &exp.pairs {
-        for cell in cells {
-            let img = |label: &str| {
-                Image::read(
-                    &pair_dir
-                        .join(sanitize(label))
-                        .join(format!("{}.exr", image_stem(label, cell))),
-                )
-            };
-            let (Ok(ia), Ok(ib)) = (img(&p.test), img(&p.reference)) else {
-                continue;
-            };
-            let Ok(m) = metrics::compare(&ia, &ib) else {
-                continue;
-            };
-            out.push(PairRow {
-                dataset: dataset.to_string(),
-                tets,
-                test: p.test.clone(),
-                reference: p.reference.clone(),
-                width: cell.size.0,
-                height: cell.size.1,
-                view_id: cell.view.id.clone(),
-                azimuth: cell.view.view.azimuth,
-                elevation: cell.view.view.elevation,
-                projection: cell.projection.name().to_string(),
-                rmse: m.rmse,
-                psnr: m.psnr,
-                max_abs: m.max_abs,
-                diff_pixels_pct: m.diff_pixels_pct,
-                max_err_pct: m.max_err_pct,
-                avg_err_pct: m.avg_err_pct,
-            });
-        }
-    }
-    out
-}
-
-/// Hash of what the image depends on in the mesh: positions, tets and the active scalars.
-pub fn mesh_hash(mesh: &Mesh) -> blake3::Hash {
-    let mut h = blake3::Hasher::new();
-    h.update(b"tetbench-mesh-v1");
-    h.update(&(mesh.num_vertices() as u64).to_le_bytes());
-    for p in mesh.positions() {
-        for c in p.to_array() {
-            h.update(&c.to_le_bytes());
-        }
-    }
-    h.update(&(mesh.num_tets() as u64).to_le_bytes());
-    for t in mesh.tets() {
-        for i in t {
-            h.update(&i.to_le_bytes());
-        }
-    }
-    for s in mesh.scalars() {
-        h.update(&s.to_le_bytes());
-    }
-    h.finalize()
-}
-
-fn tf_bytes(h: &mut blake3::Hasher, tf: &TransferFunction) {
-    h.update(tf.name.as_bytes());
-    match tf.range {
-        Some([a, b]) => {
-            h.update(&[1]);
-            h.update(&a.to_le_bytes());
-            h.update(&b.to_le_bytes());
-        }
-        None => {
-            h.update(&[0]);
-        }
-    }
-    for p in &tf.points {
-        h.update(&p.s.to_le_bytes());
-        for c in p.rgb {
-            h.update(&c.to_le_bytes());
-        }
-        h.update(&p.tau.to_le_bytes());
-    }
-}
-
-/// The cache file of the reference image for (mesh, cell, TF).
-fn ref_path(opts: &RunOptions, mesh: &blake3::Hash, exp: &Experiment, cell: &Cell) -> PathBuf {
-    let mut x = blake3::Hasher::new();
-    x.update(REFERENCE_VERSION.as_bytes());
-    x.update(mesh.as_bytes());
-    x.update(cell.projection.name().as_bytes());
-    x.update(&cell.size.0.to_le_bytes());
-    x.update(&cell.size.1.to_le_bytes());
-    x.update(&cell.view.view.azimuth.to_le_bytes());
-    x.update(&cell.view.view.elevation.to_le_bytes());
-    tf_bytes(&mut x, &exp.tf);
-    let hex = x.finalize().to_hex();
-    opts.cache_dir.join(format!("ref-{}.exr", &hex[..32]))
-}
-
-fn image_stem(label: &str, cell: &Cell) -> String {
-    format!(
-        "{}-{}-{}x{}-{}",
-        sanitize(label),
-        cell.projection.name(),
-        cell.size.0,
-        cell.size.1,
-        sanitize(&cell.view.id)
-    )
-}
-
-/// A name safe as one path component.
-pub fn sanitize(s: &str) -> String {
-    s.chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '-' || c == '.' || c == '_' {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect()
 }
 
 fn write_meta(exp: &Experiment, opts: &RunOptions) -> Result<()> {

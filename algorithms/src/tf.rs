@@ -201,7 +201,7 @@ impl TransferFunction {
     /// gives the first point).
     pub fn eval(&self, s: f64) -> ([f64; 3], f64) {
         let p = &self.points;
-        if !(s > p[0].s) || p.len() == 1 {
+        if s.is_nan() || s <= p[0].s || p.len() == 1 {
             return (p[0].rgb, p[0].tau);
         }
         let last = p[p.len() - 1];

@@ -127,7 +127,7 @@ pub fn exterior(camera: &Camera, pos: &[[f32; 3]], faces: &[BoundaryFace]) -> Re
         .par_iter()
         .map(|p| {
             let (x, y, z) = camera.project(DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64));
-            if persp && !(z > 0.0) {
+            if persp && (z.is_nan() || z <= 0.0) {
                 return None;
             }
             let wq = if persp { -1.0 / z } else { z };

@@ -292,3 +292,79 @@ pub fn face_violations(mesh: &Mesh, cam: &Camera, order: &[u32], tol: f64) -> us
 
 #[cfg(test)]
 mod tests;
+
+/// Strongly connected components of two or more cells in a visibility graph of `n` cells,
+/// searched from the cells `is_root` accepts (those with a non-zero in-degree); returns
+/// (components, cells in them). Iterative Tarjan. `next(v, k)` gives v's successor number `k`
+/// and advances `k`, or `None` when v has no more (MPVONC's and XMPVO's graphs share this).
+pub(crate) fn count_cycles(
+    n: usize,
+    is_root: impl Fn(usize) -> bool,
+    mut next: impl FnMut(usize, &mut u32) -> Option<usize>,
+) -> (usize, usize) {
+    const NONE: u32 = u32::MAX;
+    let mut index = vec![NONE; n];
+    let mut low = vec![0u32; n];
+    let mut on_stack = vec![false; n];
+    let mut stack: Vec<u32> = Vec::new();
+    // (cell, next successor number)
+    let mut call: Vec<(u32, u32)> = Vec::new();
+    let mut counter = 0u32;
+    let (mut comps, mut cells) = (0, 0);
+    for root in 0..n {
+        if !is_root(root) || index[root] != NONE {
+            continue;
+        }
+        call.push((root as u32, 0));
+        index[root] = counter;
+        low[root] = counter;
+        counter += 1;
+        stack.push(root as u32);
+        on_stack[root] = true;
+        while let Some(&(v32, k0)) = call.last() {
+            let v = v32 as usize;
+            let mut k = k0;
+            let succ = next(v, &mut k);
+            if let Some(top) = call.last_mut() {
+                top.1 = k;
+            }
+            match succ {
+                Some(w) if index[w] == NONE => {
+                    index[w] = counter;
+                    low[w] = counter;
+                    counter += 1;
+                    stack.push(w as u32);
+                    on_stack[w] = true;
+                    call.push((w as u32, 0));
+                }
+                Some(w) => {
+                    if on_stack[w] {
+                        low[v] = low[v].min(index[w]);
+                    }
+                }
+                None => {
+                    call.pop();
+                    if let Some(&(u, _)) = call.last() {
+                        low[u as usize] = low[u as usize].min(low[v]);
+                    }
+                    if low[v] == index[v] {
+                        let mut size = 0;
+                        loop {
+                            let w = stack.pop().expect("tarjan stack") as usize;
+                            on_stack[w] = false;
+                            size += 1;
+                            if w == v {
+                                break;
+                            }
+                        }
+                        if size >= 2 {
+                            comps += 1;
+                            cells += size;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    (comps, cells)
+}

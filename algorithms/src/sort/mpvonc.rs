@@ -228,7 +228,20 @@ impl Sort for Mpvonc {
             }
             // A stall: the remaining cells lie on cycles or downstream of them.
             let (list, cursor) = fallback.get_or_insert_with(|| {
-                let (cycles, cells) = count_cycles(&self.indeg, &self.out, adj);
+                let (cycles, cells) = {
+                    let out = &self.out;
+                    super::count_cycles(self.indeg.len(), |v| self.indeg[v] != 0, |v, f| {
+                        // The next face slot of v with an outgoing edge.
+                        while *f < 4 {
+                            let g = *f as usize;
+                            *f += 1;
+                            if out[v] & (1 << g) != 0 {
+                                return Some(adj[v][g] as usize);
+                            }
+                        }
+                        None
+                    })
+                };
                 stats.cycles = cycles;
                 stats.cells_in_cycles = cells;
                 let mut list = Vec::new();
@@ -263,82 +276,3 @@ impl Sort for Mpvonc {
     }
 }
 
-/// Strongly connected components with two or more cells among the cells with a non-zero
-/// in-degree (edges: the `out` bits); returns (components, cells in them). Iterative Tarjan.
-fn count_cycles(indeg: &[u8], out: &[u8], adj: &[[u32; 4]]) -> (usize, usize) {
-    const NONE: u32 = u32::MAX;
-    let n = indeg.len();
-    let mut index = vec![NONE; n];
-    let mut low = vec![0u32; n];
-    let mut on_stack = vec![false; n];
-    let mut stack: Vec<u32> = Vec::new();
-    // (cell, next face slot to look at)
-    let mut call: Vec<(u32, u8)> = Vec::new();
-    let mut next = 0u32;
-    let (mut comps, mut cells) = (0, 0);
-    for root in 0..n {
-        if indeg[root] == 0 || index[root] != NONE {
-            continue;
-        }
-        call.push((root as u32, 0));
-        index[root] = next;
-        low[root] = next;
-        next += 1;
-        stack.push(root as u32);
-        on_stack[root] = true;
-        while let Some(&(v32, f0)) = call.last() {
-            let v = v32 as usize;
-            // Next successor of v not looked at yet.
-            let mut f = f0;
-            let mut succ = None;
-            while f < 4 {
-                let g = f as usize;
-                f += 1;
-                if out[v] & (1 << g) != 0 {
-                    succ = Some(adj[v][g] as usize);
-                    break;
-                }
-            }
-            if let Some(top) = call.last_mut() {
-                top.1 = f;
-            }
-            match succ {
-                Some(w) if index[w] == NONE => {
-                    index[w] = next;
-                    low[w] = next;
-                    next += 1;
-                    stack.push(w as u32);
-                    on_stack[w] = true;
-                    call.push((w as u32, 0));
-                }
-                Some(w) => {
-                    if on_stack[w] {
-                        low[v] = low[v].min(index[w]);
-                    }
-                }
-                None => {
-                    call.pop();
-                    if let Some(&(u, _)) = call.last() {
-                        low[u as usize] = low[u as usize].min(low[v]);
-                    }
-                    if low[v] == index[v] {
-                        let mut size = 0;
-                        loop {
-                            let w = stack.pop().expect("tarjan stack") as usize;
-                            on_stack[w] = false;
-                            size += 1;
-                            if w == v {
-                                break;
-                            }
-                        }
-                        if size >= 2 {
-                            comps += 1;
-                            cells += size;
-                        }
-                    }
-                }
-            }
-        }
-    }
-    (comps, cells)
-}

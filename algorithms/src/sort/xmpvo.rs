@@ -308,7 +308,9 @@ impl Sort for Xmpvo {
                     xoff: &self.xoff,
                     xto: &self.xto,
                 };
-                let (cycles, cells) = count_cycles(&self.indeg, &g);
+                let (cycles, cells) = super::count_cycles(self.indeg.len(), |v| self.indeg[v] != 0, |v, k| {
+                    g.next(v, k)
+                });
                 stats.cycles = cycles;
                 stats.cells_in_cycles = cells;
                 let mut list = Vec::new();
@@ -372,76 +374,6 @@ impl Graph<'_> {
     }
 }
 
-/// Strongly connected components with two or more cells among the cells with a non-zero
-/// in-degree; returns (components, cells in them). Iterative Tarjan.
-fn count_cycles(indeg: &[u32], g: &Graph) -> (usize, usize) {
-    const NONE: u32 = u32::MAX;
-    let n = indeg.len();
-    let mut index = vec![NONE; n];
-    let mut low = vec![0u32; n];
-    let mut on_stack = vec![false; n];
-    let mut stack: Vec<u32> = Vec::new();
-    // (cell, next successor number)
-    let mut call: Vec<(u32, u32)> = Vec::new();
-    let mut next = 0u32;
-    let (mut comps, mut cells) = (0, 0);
-    for root in 0..n {
-        if indeg[root] == 0 || index[root] != NONE {
-            continue;
-        }
-        call.push((root as u32, 0));
-        index[root] = next;
-        low[root] = next;
-        next += 1;
-        stack.push(root as u32);
-        on_stack[root] = true;
-        while let Some(&(v32, k0)) = call.last() {
-            let v = v32 as usize;
-            let mut k = k0;
-            let succ = g.next(v, &mut k);
-            if let Some(top) = call.last_mut() {
-                top.1 = k;
-            }
-            match succ {
-                Some(w) if index[w] == NONE => {
-                    index[w] = next;
-                    low[w] = next;
-                    next += 1;
-                    stack.push(w as u32);
-                    on_stack[w] = true;
-                    call.push((w as u32, 0));
-                }
-                Some(w) => {
-                    if on_stack[w] {
-                        low[v] = low[v].min(index[w]);
-                    }
-                }
-                None => {
-                    call.pop();
-                    if let Some(&(u, _)) = call.last() {
-                        low[u as usize] = low[u as usize].min(low[v]);
-                    }
-                    if low[v] == index[v] {
-                        let mut size = 0;
-                        loop {
-                            let w = stack.pop().expect("tarjan stack") as usize;
-                            on_stack[w] = false;
-                            size += 1;
-                            if w == v {
-                                break;
-                            }
-                        }
-                        if size >= 2 {
-                            comps += 1;
-                            cells += size;
-                        }
-                    }
-                }
-            }
-        }
-    }
-    (comps, cells)
-}
 
 #[cfg(test)]
 mod tests;

@@ -49,17 +49,18 @@
 //! exactly once.
 
 use super::{centroids, check_prepared, f32x3, sort_desc_by_key, KeyFn, Sort, SortInfo, SortStats};
+use glam::DVec3;
 use crate::camera::{Camera, Projection};
 use crate::error::{Error, Result};
 use crate::mesh::{Mesh, BOUNDARY};
 
 /// The plane of one interior face between tets `a` and `b`; `n` points from `a` into `b`.
 #[derive(Clone, Copy, Debug)]
-struct Face {
-    n: [f32; 3],
-    d: f32,
-    a: u32,
-    b: u32,
+pub(super) struct Face {
+    pub(super) n: [f32; 3],
+    pub(super) d: f32,
+    pub(super) a: u32,
+    pub(super) b: u32,
 }
 
 /// In-degree mark of a cell emitted by the cycle fallback: it never decrements to 0 again.
@@ -89,6 +90,71 @@ pub const MPVONC: SortInfo = SortInfo {
     make: |_| Ok(Box::new(Mpvonc::default())),
 };
 
+/// The oriented plane of every interior face (once per pair, from the lower-numbered tet) and
+/// its slots in both tets (`f | fb << 2`): MPVONC's visibility graph, which XMPVO extends.
+/// `c` is the centre the planes are taken about; faces with an area below `area_eps` get a zero
+/// normal (never oriented).
+pub(super) fn interior_faces(
+    mesh: &Mesh,
+    c: DVec3,
+    area_eps: f64,
+    faces: &mut Vec<Face>,
+    slots: &mut Vec<u8>,
+) -> Result<()> {
+    let nt = mesh.num_tets();
+    let adj = &mesh.adjacency().neighbors;
+    let p = |v: u32| mesh.positions()[v as usize] - c;
+    faces.clear();
+    slots.clear();
+    for t in 0..nt {
+        for f in 0..4 {
+            let nb = adj[t][f];
+            if nb == BOUNDARY || (nb as usize) <= t {
+                continue;
+            }
+            let fv = mesh.face_vertices(t, f);
+            let mut key = fv;
+            key.sort_unstable();
+            // The slot of this face in the neighbour: same vertices, glued back to t.
+            let fb = (0..4)
+                .find(|&g| {
+                    let mut k = mesh.face_vertices(nb as usize, g);
+                    k.sort_unstable();
+                    adj[nb as usize][g] == t as u32 && k == key
+                })
+                .ok_or_else(|| {
+                    Error::Internal(format!("adjacency of tets {t} and {nb} is not symmetric"))
+                })?;
+            let [v0, v1, v2] = fv.map(p);
+            let mut n = (v1 - v0).cross(v2 - v0);
+            let len = n.length();
+            let (n32, d32) = if len <= area_eps {
+                ([0.0; 3], 0.0)
+            } else {
+                n /= len;
+                let opp_a = p(mesh.tets()[t][f]);
+                let opp_b = p(mesh.tets()[nb as usize][fb]);
+                let sa = n.dot(opp_a - v0);
+                let sb = n.dot(opp_b - v0);
+                // Point away from a's opposite vertex, or towards b's if a is flatter.
+                if (sa.abs() >= sb.abs() && sa > 0.0) || (sa.abs() < sb.abs() && sb < 0.0) {
+                    n = -n;
+                }
+                let m = (v0 + v1 + v2) / 3.0;
+                (f32x3(n), n.dot(m) as f32)
+            };
+            faces.push(Face {
+                n: n32,
+                d: d32,
+                a: t as u32,
+                b: nb,
+            });
+            slots.push(f as u8 | ((fb as u8) << 2));
+        }
+    }
+    Ok(())
+}
+
 impl Sort for Mpvonc {
     fn name(&self) -> String {
         "mpvonc".into()
@@ -96,59 +162,10 @@ impl Sort for Mpvonc {
 
     fn prepare(&mut self, mesh: &Mesh) -> Result<()> {
         let nt = mesh.num_tets();
-        let adj = &mesh.adjacency().neighbors;
         let c = mesh.bbox().center();
         let l = mesh.diagonal();
         let area_eps = 1e-12 * l * l;
-        let p = |v: u32| mesh.positions()[v as usize] - c;
-        self.faces.clear();
-        self.slots.clear();
-        for t in 0..nt {
-            for f in 0..4 {
-                let nb = adj[t][f];
-                if nb == BOUNDARY || (nb as usize) <= t {
-                    continue;
-                }
-                let fv = mesh.face_vertices(t, f);
-                let mut key = fv;
-                key.sort_unstable();
-                // The slot of this face in the neighbour: same vertices, glued back to t.
-                let fb = (0..4)
-                    .find(|&g| {
-                        let mut k = mesh.face_vertices(nb as usize, g);
-                        k.sort_unstable();
-                        adj[nb as usize][g] == t as u32 && k == key
-                    })
-                    .ok_or_else(|| {
-                        Error::Internal(format!("adjacency of tets {t} and {nb} is not symmetric"))
-                    })?;
-                let [v0, v1, v2] = fv.map(p);
-                let mut n = (v1 - v0).cross(v2 - v0);
-                let len = n.length();
-                let (n32, d32) = if len <= area_eps {
-                    ([0.0; 3], 0.0)
-                } else {
-                    n /= len;
-                    let opp_a = p(mesh.tets()[t][f]);
-                    let opp_b = p(mesh.tets()[nb as usize][fb]);
-                    let sa = n.dot(opp_a - v0);
-                    let sb = n.dot(opp_b - v0);
-                    // Point away from a's opposite vertex, or towards b's if a is flatter.
-                    if (sa.abs() >= sb.abs() && sa > 0.0) || (sa.abs() < sb.abs() && sb < 0.0) {
-                        n = -n;
-                    }
-                    let m = (v0 + v1 + v2) / 3.0;
-                    (f32x3(n), n.dot(m) as f32)
-                };
-                self.faces.push(Face {
-                    n: n32,
-                    d: d32,
-                    a: t as u32,
-                    b: nb,
-                });
-                self.slots.push(f as u8 | ((fb as u8) << 2));
-            }
-        }
+        interior_faces(mesh, c, area_eps, &mut self.faces, &mut self.slots)?;
         self.centroids = centroids(mesh);
         self.diag = l as f32;
         self.indeg = vec![0; nt];

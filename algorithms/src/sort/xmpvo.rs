@@ -59,17 +59,10 @@ use super::{
 };
 use crate::camera::{Camera, Projection};
 use crate::error::{Error, Result};
-use crate::mesh::{signed_volume6, Mesh, BOUNDARY};
+use crate::mesh::{signed_volume6, Mesh};
 use exterior::{exterior, BoundaryFace};
 
-/// The plane of one interior face between tets `a` and `b`; `n` points from `a` into `b`.
-#[derive(Clone, Copy, Debug)]
-struct Face {
-    n: [f32; 3],
-    d: f32,
-    a: u32,
-    b: u32,
-}
+use super::mpvonc::Face;
 
 /// In-degree mark of a cell emitted by the cycle fallback: it never decrements to 0 again.
 const FORCED: u32 = 1 << 31;
@@ -112,55 +105,11 @@ impl Sort for Xmpvo {
 
     fn prepare(&mut self, mesh: &Mesh) -> Result<()> {
         let nt = mesh.num_tets();
-        let adj = &mesh.adjacency().neighbors;
         let c = mesh.bbox().center();
         let l = mesh.diagonal();
         let area_eps = 1e-12 * l * l;
         let p = |v: u32| mesh.positions()[v as usize] - c;
-        self.faces.clear();
-        self.slots.clear();
-        for t in 0..nt {
-            for f in 0..4 {
-                let nb = adj[t][f];
-                if nb == BOUNDARY || (nb as usize) <= t {
-                    continue;
-                }
-                let fv = mesh.face_vertices(t, f);
-                let mut key = fv;
-                key.sort_unstable();
-                let fb = (0..4)
-                    .find(|&g| {
-                        let mut k = mesh.face_vertices(nb as usize, g);
-                        k.sort_unstable();
-                        adj[nb as usize][g] == t as u32 && k == key
-                    })
-                    .ok_or_else(|| {
-                        Error::Internal(format!("adjacency of tets {t} and {nb} is not symmetric"))
-                    })?;
-                let [v0, v1, v2] = fv.map(p);
-                let mut n = (v1 - v0).cross(v2 - v0);
-                let len = n.length();
-                let (n32, d32) = if len <= area_eps {
-                    ([0.0; 3], 0.0)
-                } else {
-                    n /= len;
-                    let sa = n.dot(p(mesh.tets()[t][f]) - v0);
-                    let sb = n.dot(p(mesh.tets()[nb as usize][fb]) - v0);
-                    // Point away from a's opposite vertex, or towards b's if a is flatter.
-                    if (sa.abs() >= sb.abs() && sa > 0.0) || (sa.abs() < sb.abs() && sb < 0.0) {
-                        n = -n;
-                    }
-                    (f32x3(n), n.dot((v0 + v1 + v2) / 3.0) as f32)
-                };
-                self.faces.push(Face {
-                    n: n32,
-                    d: d32,
-                    a: t as u32,
-                    b: nb,
-                });
-                self.slots.push(f as u8 | ((fb as u8) << 2));
-            }
-        }
+        super::mpvonc::interior_faces(mesh, c, area_eps, &mut self.faces, &mut self.slots)?;
         // The boundary surface, with cpu-pt's f32 centred positions.
         // Six times the volume, the threshold of `Mesh::degenerate_tets`; computed for the
         // boundary tets only (the mesh's cached volumes would cost 8 bytes a tet).

@@ -176,7 +176,9 @@ pub fn run(cli: Cli) -> Result<()> {
                 (None, false) => crate::papers::Sweep::Merge(merge),
                 (None, true) => crate::papers::Sweep::Whole,
             };
-            crate::reproduce::run(quick, &out, &only, sweep)
+            let failed = crate::reproduce::run(quick, &out, &only, sweep)?;
+            FAILED_ROWS.store(failed, std::sync::atomic::Ordering::SeqCst);
+            Ok(())
         }
         Command::Plot { dir } if dir.join("raw").is_dir() => {
             // A `reproduce` directory: every table's plots from its raw rows.

@@ -336,3 +336,71 @@ fn plot_on_an_empty_or_header_only_csv_says_nothing_to_plot() {
     assert!(err_line(&o).contains("nothing to plot"), "{}", err_line(&o));
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// `reproduce --shard I/N` on every shard, then `reproduce --merge`, gives the unsharded run's
+/// rows and table; a renderer that fails in every view of a table is a "failed" row of that
+/// table with the message, listed in its notes, and the exit status is 3 — sharded or not.
+#[test]
+fn reproduce_shards_merge_to_the_unsharded_table_with_failed_rows_shown() {
+    let d = tmpdir("reproduce");
+    let run = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_tetbench"))
+            .args(["reproduce", "--quick", "--only", "ptint-fig8"])
+            .args(args)
+            .env("TETBENCH_TEST_PANIC", "raycast/partial@*")
+            .output()
+            .unwrap()
+    };
+    let (whole, s0, s1, merged) = (
+        d.join("whole"),
+        d.join("s0"),
+        d.join("s1"),
+        d.join("merged"),
+    );
+    let o = run(&["--out", s(&whole)]);
+    assert_eq!(o.status.code(), Some(3), "{}", err_line(&o));
+    for (i, dir) in [(0, &s0), (1, &s1)] {
+        let shard = format!("{i}/2");
+        let o = run(&["--shard", &shard, "--out", s(dir)]);
+        // Shard 0 or 1 measures the raycast rows (and fails them): exit 3 there only.
+        assert!(matches!(o.status.code(), Some(0 | 3)), "{}", err_line(&o));
+        assert!(
+            !dir.join("ptint-fig8.md").exists(),
+            "a shard writes raw rows, not tables"
+        );
+    }
+    let o = run(&["--merge", s(&s0), s(&s1), "--out", s(&merged)]);
+    assert_eq!(o.status.code(), Some(3), "{}", err_line(&o));
+    let raw = |dir: &Path| dir.join("raw/ptint-fig8/results.csv");
+    same_rows(&raw(&whole), &raw(&merged));
+    let table = |dir: &Path| std::fs::read_to_string(dir.join("ptint-fig8.md")).unwrap();
+    let (tw, tm) = (table(&whole), table(&merged));
+    for t in [&tw, &tm] {
+        let failed: Vec<&str> = t
+            .lines()
+            .filter(|l| l.contains("| raycast/partial |"))
+            .collect();
+        assert!(!failed.is_empty(), "no raycast row:\n{t}");
+        assert!(
+            failed
+                .iter()
+                .all(|l| l.contains("| failed: ")
+                    && l.contains("panicked: test-only renderer panic")),
+            "{failed:?}"
+        );
+        assert!(t.contains("**Failed measurements**"), "{t}");
+        assert!(
+            t.contains("raycast/partial: 6 of 6 measurements failed"),
+            "{t}"
+        );
+    }
+    // The same rows in the same order; only the measured times differ.
+    let cells = |t: &str| -> Vec<String> {
+        t.lines()
+            .filter(|l| l.starts_with("| ") && !l.starts_with("| viewport"))
+            .map(|l| l.split(" | ").take(3).collect::<Vec<_>>().join("|"))
+            .collect()
+    };
+    assert_eq!(cells(&tw), cells(&tm));
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -452,8 +452,9 @@ impl Prepared {
 }
 
 /// Test-only: `TETBENCH_TEST_PANIC=VARIANT@VIEW_ID` makes the renderer of that one cell panic
-/// inside `render`, to prove that a panicking renderer costs one failed row, not the sweep. Not
-/// for users; it is set only by the harness's tests.
+/// inside `render`, to prove that a panicking renderer costs one failed row, not the sweep
+/// (comma-separated cells; `VARIANT@*` for all of a variant's views). Not for users; it is set
+/// only by the harness's tests.
 pub const TEST_PANIC_ENV: &str = "TETBENCH_TEST_PANIC";
 
 /// A renderer that panics when it renders (see [`TEST_PANIC_ENV`]).
@@ -518,7 +519,11 @@ pub fn measure_cell(
             let renderer = p.renderer.as_mut();
             let mesh = &p.mesh;
             isolated(|| {
-                if std::env::var(TEST_PANIC_ENV).is_ok_and(|v| v == label) {
+                if std::env::var(TEST_PANIC_ENV).is_ok_and(|v| {
+                    v.split(',').any(|c| {
+                        c == label || c.strip_suffix("@*") == Some(p.base.variant.as_str())
+                    })
+                }) {
                     let mut r = TestPanic(renderer);
                     return measure::measure(&mut r, mesh, &cam, frames);
                 }

@@ -404,3 +404,38 @@ fn reproduce_shards_merge_to_the_unsharded_table_with_failed_rows_shown() {
     assert_eq!(cells(&tw), cells(&tm));
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// `reproduce --slurm N` prints an N-task array and a merge job that depends on it, as valid
+/// shell; a shard whose only trouble is failed rows (exit 3) does not stop the merge.
+#[test]
+fn reproduce_slurm_prints_an_array_and_its_merge() {
+    let o = tetbench(&[
+        "reproduce",
+        "--slurm",
+        "3",
+        "--quick",
+        "--out",
+        "/shared/out",
+    ]);
+    assert!(o.status.success(), "{}", err_line(&o));
+    let text = String::from_utf8(o.stdout).unwrap();
+    assert!(text.contains("--array=0-2"), "{text}");
+    assert!(text.contains("--shard $SLURM_ARRAY_TASK_ID/3"), "{text}");
+    assert!(text.contains("--dependency=afterok:$array"), "{text}");
+    assert!(
+        text.contains("--merge /shared/out/shard-0 /shared/out/shard-1 /shared/out/shard-2"),
+        "{text}"
+    );
+    assert_eq!(text.matches("[ $rc -eq 3 ] && rc=0").count(), 2, "{text}");
+    let mut sh = Command::new("bash")
+        .arg("-n")
+        .stdin(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    use std::io::Write;
+    sh.stdin.take().unwrap().write_all(text.as_bytes()).unwrap();
+    assert!(sh.wait().unwrap().success(), "not valid shell:\n{text}");
+    let o = tetbench(&["reproduce", "--slurm", "0"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert_eq!(err_line(&o).lines().count(), 1, "{}", err_line(&o));
+}

@@ -30,7 +30,15 @@ fn hash(px: &[[f64; 4]], steps: u64, missed: u64) -> u64 {
 }
 
 /// (mesh, tets, view, projection, integrator, expected hash).
-const CASES: &[(&str, usize, (f64, f64), Projection, &str, u64)] = &[
+type Case = (
+    &'static str,
+    usize,
+    (f64, f64),
+    Projection,
+    &'static str,
+    u64,
+);
+const CASES: &[Case] = &[
     (
         "spx",
         13_000,

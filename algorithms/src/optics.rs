@@ -462,6 +462,7 @@ impl PsiTable {
     }
 
     /// Bilinear lookup at `(γ_f, γ_b)` (clamped to `[0, 1]`).
+    #[inline]
     pub fn lookup_gamma(&self, gf: f64, gb: f64) -> f64 {
         let n = self.n;
         let m = (n - 1) as f64;
@@ -487,6 +488,7 @@ impl PsiTable {
     }
 
     /// Ψ for the end optical depths `τ_f·l`, `τ_b·l` (≥ 0).
+    #[inline]
     pub fn lookup(&self, tau_f_l: f64, tau_b_l: f64) -> f64 {
         self.lookup_gamma(gamma_of_depth(tau_f_l), gamma_of_depth(tau_b_l))
     }
@@ -629,11 +631,19 @@ impl Exact {
     }
 }
 
-impl Integrator for Exact {
-    fn name(&self) -> &'static str {
-        "exact"
-    }
-    fn segment(&self, sf: f64, sb: f64, l: f64) -> Segment {
+impl Exact {
+    /// [`Integrator::segment`] given the transfer function's values at both ends,
+    /// `ef = tf.eval(sf)` and `eb = tf.eval(sb)` (the same bits): a ray caster evaluates each
+    /// crossing once, as the back of one segment and the front of the next.
+    #[inline]
+    pub fn segment_eval(
+        &self,
+        sf: f64,
+        ef: ([f64; 3], f64),
+        sb: f64,
+        eb: ([f64; 3], f64),
+        l: f64,
+    ) -> Segment {
         if !valid_input(sf, sb, l) {
             return Segment::default();
         }
@@ -644,9 +654,8 @@ impl Integrator for Exact {
         let span = sb - sf;
         let (lo, hi) = if sf <= sb { (sf, sb) } else { (sb, sf) };
         let mut acc = Segment::default();
-        let (mut s0, (mut c0, mut t0)) = (sf, tf.eval(sf));
-        let mut piece = |s1: f64| -> bool {
-            let (c1, t1) = tf.eval(s1);
+        let (mut s0, (mut c0, mut t0)) = (sf, ef);
+        let mut piece = |s1: f64, (c1, t1): ([f64; 3], f64)| -> bool {
             let frac = if span != 0.0 { (s1 - s0) / span } else { 1.0 };
             if frac > 0.0 {
                 composite_under(&mut acc, piece_segment(c0, t0, c1, t1, frac * l));
@@ -659,14 +668,37 @@ impl Integrator for Exact {
         };
         let inner = |p: &&crate::tf::TfPoint| p.s > lo && p.s < hi;
         let more = if sf <= sb {
-            tf.points.iter().filter(inner).all(|p| piece(p.s))
+            tf.points
+                .iter()
+                .filter(inner)
+                .all(|p| piece(p.s, tf.eval(p.s)))
         } else {
-            tf.points.iter().rev().filter(inner).all(|p| piece(p.s))
+            tf.points
+                .iter()
+                .rev()
+                .filter(inner)
+                .all(|p| piece(p.s, tf.eval(p.s)))
         };
         if more {
-            piece(sb);
+            piece(sb, eb);
         }
         acc
+    }
+
+    pub fn tf(&self) -> &TransferFunction {
+        &self.tf
+    }
+}
+
+impl Integrator for Exact {
+    fn name(&self) -> &'static str {
+        "exact"
+    }
+    fn segment(&self, sf: f64, sb: f64, l: f64) -> Segment {
+        if !valid_input(sf, sb, l) {
+            return Segment::default();
+        }
+        self.segment_eval(sf, self.tf.eval(sf), sb, self.tf.eval(sb), l)
     }
 }
 
@@ -729,16 +761,18 @@ impl Partial {
     }
 }
 
-impl Integrator for Partial {
-    fn name(&self) -> &'static str {
-        "partial"
-    }
-    fn segment(&self, sf: f64, sb: f64, l: f64) -> Segment {
-        if !valid_input(sf, sb, l) {
-            return Segment::default();
-        }
-        let (cf, tau_f) = self.tf.eval(sf);
-        let (cb, tau_b) = self.tf.eval(sb);
+impl Partial {
+    /// [`Integrator::segment`] for finite `sf`, `sb` and `l > 0`, given the transfer
+    /// function's values at both ends, `tf.eval(sf)` and `tf.eval(sb)` (the same bits): a ray
+    /// caster evaluates each crossing once, as the back of one segment and the front of the
+    /// next.
+    #[inline]
+    pub fn segment_eval(
+        &self,
+        (cf, tau_f): ([f64; 3], f64),
+        (cb, tau_b): ([f64; 3], f64),
+        l: f64,
+    ) -> Segment {
         let (fa, fb) = (tau_len(tau_f, l), tau_len(tau_b, l));
         let g_end = 0.5 * (fa + fb);
         let zeta = (-g_end).exp();
@@ -755,6 +789,22 @@ impl Integrator for Partial {
             ],
             alpha,
         }
+    }
+
+    pub fn tf(&self) -> &TransferFunction {
+        &self.tf
+    }
+}
+
+impl Integrator for Partial {
+    fn name(&self) -> &'static str {
+        "partial"
+    }
+    fn segment(&self, sf: f64, sb: f64, l: f64) -> Segment {
+        if !valid_input(sf, sb, l) {
+            return Segment::default();
+        }
+        self.segment_eval(self.tf.eval(sf), self.tf.eval(sb), l)
     }
 }
 

@@ -199,6 +199,7 @@ impl TransferFunction {
 
     /// Colour and extinction at `s`: linear between points, constant beyond the ends (a NaN `s`
     /// gives the first point).
+    #[inline]
     pub fn eval(&self, s: f64) -> ([f64; 3], f64) {
         let p = &self.points;
         if s.is_nan() || s <= p[0].s || p.len() == 1 {

@@ -6,6 +6,7 @@ use rayon::prelude::*;
 
 use super::predicate::{coord, RayCtx};
 use super::Prepared;
+use crate::camera::{Camera, Projection};
 use crate::mesh::{Mesh, FACE_VERTS};
 
 /// For each boundary face `bfs` of `mesh` (4·tet + face), whether its
@@ -99,6 +100,7 @@ pub(super) struct Bvh {
 
 #[derive(Clone, Copy)]
 struct BvhNode {
+    /// The box of the faces below, padded by a relative epsilon (1e-9 of its extent).
     min: DVec3,
     max: DVec3,
     /// Leaf: first face and count (count > 0). Inner: index of the left child (right follows it).
@@ -138,8 +140,10 @@ impl Bvh {
                 clo = clo.min(c);
                 chi = chi.max(c);
             }
-            nodes[ni].min = lo;
-            nodes[ni].max = hi;
+            // The slab test's box, padded by a relative epsilon so grazing rays are not lost.
+            let pad = (hi - lo).abs().max(DVec3::splat(1e-300)) * 1e-9;
+            nodes[ni].min = lo - pad;
+            nodes[ni].max = hi + pad;
             if b - a <= LEAF_SIZE {
                 nodes[ni].start = a as u32;
                 nodes[ni].count = (b - a) as u32;
@@ -185,8 +189,7 @@ impl Bvh {
         let mut t0 = t_lo;
         let mut t1 = t_hi;
         for k in 0..3 {
-            let pad = 1e-9 * (n.max[k] - n.min[k]).abs().max(1e-300);
-            let (lo, hi) = (n.min[k] - pad, n.max[k] + pad);
+            let (lo, hi) = (n.min[k], n.max[k]);
             let d = ray.d[k];
             let o = ray.o[k];
             if d == 0.0 {
@@ -195,7 +198,7 @@ impl Bvh {
                 }
                 continue;
             }
-            let inv = 1.0 / d;
+            let inv = ray.inv_d[k];
             let (mut a, mut b) = ((lo - o) * inv, (hi - o) * inv);
             if a > b {
                 std::mem::swap(&mut a, &mut b);
@@ -211,40 +214,74 @@ impl Bvh {
 
     /// The nearest boundary face the ray enters at depth ≥ `t_min`, other than `exclude`:
     /// (tet, face, depth, scalar).
+    ///
+    /// Only the faces and subtrees `front` keeps are searched (the others cannot be entered by
+    /// any ray of the frame's camera).
+    ///
+    /// `seed` (a face index in leaf order, or `u32::MAX`) is a face the ray probably enters
+    /// through (the previous ray's): if it does, at depth `t_s ≥ t_min`, the search starts with
+    /// `t_s` (plus a margin of 1e-9 of the mesh's size) as its bound, which prunes every box beyond
+    /// it. The answer is the same: the first face in traversal order with the least depth (a
+    /// face at exactly `t_s` is taken only while nothing is found, as it would be when first
+    /// met); only faces whose depths tie to the rounding of a slab test could be ordered
+    /// otherwise, and `tests/tests/raycast_bits.rs` pins the images. Returns the face's leaf
+    /// index too.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn first_entry(
         &self,
         st: &Prepared,
         tets: &[[u32; 4]],
+        front: &Front,
         ray: &RayCtx,
         t_min: f64,
         exclude: u32,
-    ) -> Option<(u32, usize, f64, f64)> {
+        seed: u32,
+    ) -> Option<(u32, usize, f64, f64, u32)> {
         if self.faces.is_empty() {
             return None;
         }
-        let mut best: Option<(u32, usize, f64, f64)> = None;
+        let tri_of = |bf: u32| FACE_VERTS[bf as usize % 4].map(|k| tets[bf as usize / 4][k]);
+        let mut best: Option<(u32, usize, f64, f64, u32)> = None;
         let mut best_t = f64::INFINITY;
+        if let Some(&bf) = self.faces.get(seed as usize) {
+            if bf != exclude && front.faces[seed as usize] {
+                if let Some((tt, _)) = st.cross_face(ray, tri_of(bf), self.entering[seed as usize])
+                {
+                    if tt >= t_min {
+                        best_t = tt;
+                    }
+                }
+            }
+        }
+        let slack = 10.0 * st.t_eps;
         let mut stack = [0u32; 64];
         let mut sp = 1usize;
         while sp > 0 {
             sp -= 1;
-            let n = &self.nodes[stack[sp] as usize];
-            if !Self::hit_box(n, ray, t_min, best_t) {
+            let ni = stack[sp] as usize;
+            let n = &self.nodes[ni];
+            // Until a face is found the seed's depth bounds the search with a margin: a flat
+            // box (a face in an axis plane) has no padding, and its slab depth may be an ulp
+            // beyond the depth interpolated on its face.
+            let bound = if best.is_none() {
+                best_t + slack
+            } else {
+                best_t
+            };
+            if !front.nodes[ni] || !Self::hit_box(n, ray, t_min, bound) {
                 continue;
             }
             if n.count > 0 {
                 let leaf = n.start as usize..(n.start + n.count) as usize;
-                for (&bf, &entering) in self.faces[leaf.clone()].iter().zip(&self.entering[leaf])
-                {
-                    if bf == exclude {
+                for i in leaf {
+                    let bf = self.faces[i];
+                    if bf == exclude || !front.faces[i] {
                         continue;
                     }
-                    let (t, f) = (bf as usize / 4, bf as usize % 4);
-                    let tri = FACE_VERTS[f].map(|k| tets[t][k]);
-                    if let Some((tt, s)) = st.cross_face(ray, tri, entering) {
-                        if tt >= t_min && tt < best_t {
+                    if let Some((tt, s)) = st.cross_face(ray, tri_of(bf), self.entering[i]) {
+                        if tt >= t_min && (tt < best_t || (best.is_none() && tt == best_t)) {
                             best_t = tt;
-                            best = Some((t as u32, f, tt, s));
+                            best = Some((bf / 4, bf as usize % 4, tt, s, i as u32));
                         }
                     }
                 }
@@ -288,5 +325,78 @@ impl Bvh {
             }
         }
         false
+    }
+}
+
+/// Per frame: the boundary faces a ray of the frame's camera may enter through, and the BVH
+/// nodes with any such face below them.
+pub(super) struct Front {
+    nodes: Vec<bool>,
+    faces: Vec<bool>,
+}
+
+impl Bvh {
+    /// Which boundary faces a ray of `cam` can enter through, conservatively.
+    ///
+    /// The directed edge products of a ray with a triangle `(a, b, c)` sum to `d · N`,
+    /// `N = (b − a) × (c − a)` (the origin terms cancel). A ray crosses the face with all
+    /// products of the entering sign only if `d · N` has that sign or is 0 (each product's sign
+    /// is exact, and a product that is exactly 0 adds nothing). For the orthographic camera `d`
+    /// is the same for every ray; for the perspective one every ray starts at the eye `e`, and
+    /// at its crossing point `x = e + t·d` (t > 0: the eye sees the whole mesh in front of it)
+    /// `d · N = (x − e) · N / t = (a − e) · N / t`. A face is dropped only where that sign,
+    /// computed in f64, is the wrong one by more than a bound of its rounding error (1e-12 of
+    /// its permanent; the rounding is ~1e-15), so no face a ray could enter is dropped and the
+    /// search returns what it would without this.
+    pub(super) fn front(&self, verts: &[super::Vert], tets: &[[u32; 4]], cam: &Camera) -> Front {
+        let persp = matches!(cam.projection, Projection::Persp);
+        let eye = cam.eye();
+        // Perspective: the mesh must lie wholly in front of the eye (it does: the eye is at
+        // 3R from the centre, the mesh within R of it); otherwise nothing is dropped.
+        let in_front = !persp
+            || verts
+                .iter()
+                .all(|v| (v.p - eye).dot(cam.forward) > 1e-9 * cam.radius);
+        let faces: Vec<bool> = self
+            .faces
+            .par_iter()
+            .zip(&self.entering)
+            .map(|(&bf, &entering)| {
+                if !in_front {
+                    return true;
+                }
+                let (t, f) = (bf as usize / 4, bf as usize % 4);
+                let [a, b, c] = FACE_VERTS[f].map(|k| verts[tets[t][k] as usize].p);
+                let (ab, ac) = (b - a, c - a);
+                let n = ab.cross(ac);
+                // The permanent of the cross product: its terms in absolute value.
+                let nabs = DVec3::new(
+                    (ab.y * ac.z).abs() + (ab.z * ac.y).abs(),
+                    (ab.z * ac.x).abs() + (ab.x * ac.z).abs(),
+                    (ab.x * ac.y).abs() + (ab.y * ac.x).abs(),
+                );
+                let dir = if persp { a - eye } else { cam.forward };
+                let dn = dir.dot(n);
+                let bound = 1e-12 * dir.abs().dot(nabs);
+                if entering {
+                    dn >= -bound
+                } else {
+                    dn <= bound
+                }
+            })
+            .collect();
+        let mut nodes = vec![false; self.nodes.len()];
+        // Children follow their parent in `nodes`, so a reverse pass sees them first.
+        for i in (0..self.nodes.len()).rev() {
+            let n = &self.nodes[i];
+            nodes[i] = if n.count > 0 {
+                faces[n.start as usize..(n.start + n.count) as usize]
+                    .iter()
+                    .any(|&o| o)
+            } else {
+                nodes[n.start as usize] || nodes[n.start as usize + 1]
+            };
+        }
+        Front { nodes, faces }
     }
 }

@@ -16,6 +16,7 @@
 
 mod bvh;
 mod predicate;
+mod shade;
 mod walk;
 
 use std::time::Instant;
@@ -28,9 +29,11 @@ use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::image::Image;
 use crate::mesh::{signed_volume6, Mesh, BOUNDARY};
-use crate::optics::{integrator, Integrator, INTEGRATORS};
+use crate::optics::INTEGRATORS;
 use crate::tf::TransferFunction;
 use bvh::Bvh;
+use predicate::RayCtx;
+use shade::{Shade, Shader};
 
 /// Registry entry for `raycast` (any integrator; `partial` by default).
 pub static RAYCAST: RendererInfo = RendererInfo {
@@ -99,7 +102,7 @@ struct Prepared {
     /// Largest |coordinate| of `pos`, for the predicate filter's static error bound.
     max_abs: f64,
     bvh: Bvh,
-    integrator: Box<dyn Integrator>,
+    shader: Shader,
     /// 1 / L: world length to optical length.
     inv_l: f64,
     /// Tolerance for re-entry at the same depth (concave boundary edges).
@@ -154,7 +157,7 @@ impl Renderer for RayCaster {
 
     fn prepare(&mut self, mesh: &Mesh, tf: &TransferFunction) -> Result<()> {
         self.state = None;
-        let integrator = integrator(&self.integrator_name, tf)?;
+        let shader = Shader::new(&self.integrator_name, tf)?;
         let c = mesh.bbox().center();
         let l = mesh.diagonal();
         let map = tf.scalar_map(mesh.scalar_range());
@@ -212,7 +215,7 @@ impl Renderer for RayCaster {
             next,
             max_abs,
             bvh,
-            integrator,
+            shader,
             inv_l: if l > 0.0 { 1.0 / l } else { 0.0 },
             t_eps: 1e-10 * l.max(f64::MIN_POSITIVE),
             max_steps: 64 + 8 * mesh.num_tets(),
@@ -259,22 +262,46 @@ impl RayCaster {
             .ok_or_else(|| Error::Internal("raycast: render before prepare".into()))?;
         let w = camera.width.max(1) as usize;
         let mut px = vec![[0.0f64; 4]; w * camera.height as usize];
-        // Bands of TILE rows in parallel, each walked tile by tile (TILE × TILE rays in row
-        // order): neighbouring rays cross the same cells, and a tile's cells (~16·26 per row of
-        // it on the NASA grids at 512²) stay in cache for its next row, where a whole image row
-        // (~13K cells) does not. Every pixel is computed alone, so the order changes no bit.
-        let stats = px
-            .par_chunks_mut(w * TILE)
+        let stats = match &st.shader {
+            Shader::Partial(p) => st.tiles(mesh, camera, p, &mut px),
+            Shader::Exact(e) => st.tiles(mesh, camera, e, &mut px),
+            Shader::Other(i) => st.tiles(mesh, camera, i, &mut px),
+        };
+        Ok((px, stats))
+    }
+}
+
+impl Prepared {
+    /// Casts every pixel's ray into `px` (row-major, width `camera.width`).
+    ///
+    /// Bands of TILE rows in parallel, each walked tile by tile (TILE × TILE rays in row
+    /// order): neighbouring rays cross the same cells, and a tile's cells (~16·26 per row of
+    /// it on the NASA grids at 512²) stay in cache for its next row, where a whole image row
+    /// (~13K cells) does not. Every pixel is computed alone, so the order changes no bit.
+    fn tiles<S: Shade>(
+        &self,
+        mesh: &Mesh,
+        camera: &Camera,
+        shade: &S,
+        px: &mut [[f64; 4]],
+    ) -> RayStats {
+        let w = camera.width.max(1) as usize;
+        let tets = mesh.tets();
+        let front = self.bvh.front(&self.verts, tets, camera);
+        px.par_chunks_mut(w * TILE)
             .enumerate()
             .map(|(b, band)| {
                 let mut rs = RayStats::default();
                 let rows = band.len() / w;
+                // The previous ray's entry face, per band (tile order keeps it a neighbour).
+                let mut seed = u32::MAX;
                 for i0 in (0..w).step_by(TILE) {
                     for dj in 0..rows {
                         let j = b * TILE + dj;
                         for i in i0..(i0 + TILE).min(w) {
                             let ray = camera.pixel_ray(i as u32, j as u32);
-                            let (seg, s) = st.cast(mesh, camera, &ray);
+                            let ctx = RayCtx::new(&ray, camera, self.max_abs);
+                            let (seg, s) = self.cast(tets, shade, &front, &ctx, &mut seed);
                             rs += s;
                             band[dj * w + i] = [seg.rgb[0], seg.rgb[1], seg.rgb[2], seg.alpha];
                         }
@@ -285,7 +312,6 @@ impl RayCaster {
             .reduce(RayStats::default, |mut a, b| {
                 a += b;
                 a
-            });
-        Ok((px, stats))
+            })
     }
 }

@@ -11,6 +11,8 @@ use crate::camera::{Camera, Ray};
 pub(super) struct RayCtx {
     pub(super) o: DVec3,
     pub(super) d: DVec3,
+    /// `1 / d` per coordinate, for the BVH's slab test.
+    pub(super) inv_d: DVec3,
     /// A second point on the ray, `o + d`: with `o` it defines the line every predicate uses.
     q: DVec3,
     /// d × r and d × u: first- and second-order terms of the perturbed products.
@@ -53,6 +55,7 @@ impl RayCtx {
             q,
             d_r: ray.dir.cross(cam.right),
             d_u: ray.dir.cross(cam.up),
+            inv_d: DVec3::ONE / ray.dir,
             c,
             bound: O3D_ERRBOUND_A * 6.0 * a * a * cm * (1.0 + 1e-12),
             fallbacks: Cell::new(0),

@@ -2,39 +2,62 @@
 //! over from the previous cell), the crossing's depth and scalar, and one ray's cast.
 
 
+use super::bvh::Front;
 use super::predicate::RayCtx;
+use super::shade::Shade;
 use super::{Prepared, RayStats, TERMINATE_T};
-use crate::camera::{Camera, Ray};
-use crate::mesh::{Mesh, BOUNDARY, FACE_VERTS};
+use crate::mesh::{BOUNDARY, FACE_VERTS};
 use crate::optics::{composite_under, Segment};
 
 /// The six edges of a tet as local vertex pairs, and the index of pair (x, y) in that list.
 const LOCAL_EDGES: [(usize, usize); 6] = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)];
 const LOCAL_EDGE_INDEX: [[usize; 4]; 4] = [[0, 0, 1, 2], [0, 0, 3, 4], [1, 3, 0, 5], [2, 4, 5, 0]];
 
-/// Edge products of the face a ray left the previous cell through, keyed by global vertex pair
-/// (lower id first): the next cell's entry face has the same edges, so they are not recomputed.
-#[derive(Default)]
-struct EdgeCarry {
-    edges: [(u32, u32, (f64, bool)); 3],
-    valid: bool,
+/// The products of a cell's six edges (local edge order [`LOCAL_EDGES`]), each for the
+/// direction lower global id → higher, with their signs after the symbolic perturbation;
+/// `known` marks the ones already computed (bit per edge). Each product is a function of the
+/// ray and the edge's two global vertices only, so carrying the entry face's three from the
+/// previous cell changes no bit of it.
+struct Edges {
+    vals: [(f64, bool); 6],
+    known: u8,
 }
 
-impl EdgeCarry {
-    #[inline]
-    fn get(&self, a: u32, b: u32) -> Option<(f64, bool)> {
-        if !self.valid {
-            return None;
+impl Edges {
+    const NONE: Edges = Edges {
+        vals: [(0.0, false); 6],
+        known: 0,
+    };
+
+    /// The entry face's edges of cell `g2` (entered through its face `f2`) from those of cell
+    /// `g`, which the ray left through the same triangle; an edge whose vertices are not found
+    /// (or coincide) is left to be computed.
+    #[inline(always)]
+    fn carried(&self, g: &[u32; 4], g2: &[u32; 4], f2: usize) -> Edges {
+        // Local index in `g` of each vertex of `g2` (4 = not found).
+        let find = |v: u32| -> usize {
+            let m = (g[0] == v) as u32
+                | ((g[1] == v) as u32) << 1
+                | ((g[2] == v) as u32) << 2
+                | ((g[3] == v) as u32) << 3;
+            m.trailing_zeros().min(4) as usize
+        };
+        let at: [usize; 4] = std::array::from_fn(|k| find(g2[k]));
+        let mut out = Edges::NONE;
+        let c = FACE_VERTS[f2];
+        for k in 0..3 {
+            let (i, j) = (c[(k + 1) % 3], c[(k + 2) % 3]);
+            let (x, y) = (at[i], at[j]);
+            if x < 4 && y < 4 && x != y {
+                let e = LOCAL_EDGE_INDEX[x][y];
+                if self.known & (1 << e) != 0 {
+                    let e2 = LOCAL_EDGE_INDEX[i][j];
+                    out.vals[e2] = self.vals[e];
+                    out.known |= 1 << e2;
+                }
+            }
         }
-        self.edges
-            .iter()
-            .find(|e| e.0 == a && e.1 == b)
-            .map(|e| e.2)
-    }
-    #[inline]
-    fn set(&mut self, edges: [(u32, u32, (f64, bool)); 3]) {
-        self.edges = edges;
-        self.valid = true;
+        out
     }
 }
 
@@ -89,111 +112,137 @@ impl Prepared {
         ((p - ray.o).dot(ray.d), s)
     }
 
-    /// The face through which the ray leaves tet `t` that it entered through face `fin`.
-    /// `carry` holds the products of the entry face's edges from the previous cell (keyed by
-    /// global vertex pair), so only the three edges to the apex are computed here; on return
-    /// it holds the exit face's. Returns the crossing and whether the fallback (no consistent
-    /// face) was used.
+    /// The face through which the ray leaves cell `t` (vertices `g`) that it entered through
+    /// face `fin`. `edges` holds the products already known (the entry face's, carried from the
+    /// previous cell); the others (the three edges to the apex, or all six in the first cell)
+    /// are computed here. Returns the crossing and whether the fallback (no consistent face)
+    /// was used.
+    #[inline(always)]
     fn exit(
         &self,
-        mesh: &Mesh,
         ray: &RayCtx,
         t: usize,
         fin: usize,
-        carry: &mut EdgeCarry,
+        g: &[u32; 4],
+        edges: &mut Edges,
     ) -> (Crossing, bool) {
-        let tet = mesh.tets()[t];
-        // Products of the six edges, each for the direction lower global id → higher.
-        let mut vals = [(0.0f64, false); 6];
-        for (e, &(i, j)) in LOCAL_EDGES.iter().enumerate() {
-            let (a, b) = (tet[i].min(tet[j]), tet[i].max(tet[j]));
-            vals[e] = match carry.get(a, b) {
-                Some(v) => v,
-                None => self.edge(ray, a, b),
-            };
-        }
-        // The directed product x → y (local indices) from the table.
-        let directed = |x: usize, y: usize| -> (f64, bool) {
-            let (v, s) = vals[LOCAL_EDGE_INDEX[x][y]];
-            if tet[x] <= tet[y] {
-                (v, s)
-            } else {
-                (-v, !s)
+        if edges.known != 0b11_1111 {
+            for (e, &(i, j)) in LOCAL_EDGES.iter().enumerate() {
+                if edges.known & (1 << e) == 0 {
+                    edges.vals[e] = self.edge(ray, g[i].min(g[j]), g[i].max(g[j]));
+                }
             }
-        };
-        let face_products = |f: usize| -> [(f64, bool); 3] {
+            edges.known = 0b11_1111;
+        }
+        let vals = &edges.vals;
+        // Sign of the directed product x → y (local indices): the stored one, flipped when the
+        // edge runs from the higher global id to the lower.
+        let dsign = |x: usize, y: usize| -> u8 { (vals[LOCAL_EDGE_INDEX[x][y]].1 ^ (g[x] > g[y])) as u8 };
+        // Per face, bit k = sign of the product with the edge opposite its vertex k.
+        let mask = |f: usize| -> u8 {
             let c = FACE_VERTS[f];
-            // Weight of vertex k is the product with the opposite edge.
-            std::array::from_fn(|k| directed(c[(k + 1) % 3], c[(k + 2) % 3]))
+            dsign(c[1], c[2]) | dsign(c[2], c[0]) << 1 | dsign(c[0], c[1]) << 2
         };
+        let masks = [mask(0), mask(1), mask(2), mask(3)];
         let pos_tet = self.sign[t] > 0;
-        let mut chosen = None;
+        let all = |want: bool| if want { 0b111 } else { 0 };
+        let mut chosen = 4;
         'search: for want in [pos_tet, !pos_tet] {
-            for f in (0..4).filter(|&f| f != fin) {
-                let p = face_products(f);
-                if p.iter().all(|&(_, s)| s == want) {
-                    chosen = Some((f, p, false));
+            for (f, &m) in masks.iter().enumerate() {
+                if f != fin && m == all(want) {
+                    chosen = f;
                     break 'search;
                 }
             }
         }
-        // No face is consistent (a flat or numerically inverted cell): leave through the face
-        // whose products are closest to consistent, at its own crossing point.
-        let (f, p, fallback) = chosen.unwrap_or_else(|| {
-            let sgn = if pos_tet { 1.0 } else { -1.0 };
-            let mut best = (f64::NEG_INFINITY, (fin + 1) % 4);
-            for f in (0..4).filter(|&f| f != fin) {
-                let m = face_products(f)
-                    .iter()
-                    .map(|&(v, _)| sgn * v)
-                    .fold(f64::INFINITY, f64::min);
-                if m > best.0 {
-                    best = (m, f);
-                }
-            }
-            (best.1, face_products(best.1), true)
-        });
+        let weights = |f: usize| -> [f64; 3] {
+            let c = FACE_VERTS[f];
+            // Weight of vertex k is the product with the opposite edge.
+            std::array::from_fn(|k| vals[LOCAL_EDGE_INDEX[c[(k + 1) % 3]][c[(k + 2) % 3]]].0.abs())
+        };
+        let (f, fallback) = if chosen < 4 {
+            (chosen, false)
+        } else {
+            (self.fallback_face(vals, g, fin, pos_tet), true)
+        };
         let c = FACE_VERTS[f];
-        let tri = c.map(|k| tet[k]);
-        let (tt, s) = self.interpolate(ray, tri, p.map(|(v, _)| v.abs()));
-        carry.set(std::array::from_fn(|k| {
-            let (x, y) = (c[(k + 1) % 3], c[(k + 2) % 3]);
-            let (a, b) = (tet[x].min(tet[y]), tet[x].max(tet[y]));
-            (a, b, vals[LOCAL_EDGE_INDEX[x][y]])
-        }));
+        let tri = c.map(|k| g[k]);
+        let (tt, s) = self.interpolate(ray, tri, weights(f));
         (Crossing { face: f, t: tt, s }, fallback)
     }
 
+    /// No face is consistent (a flat or numerically inverted cell): the face other than `fin`
+    /// whose directed products are closest to consistent (the ray leaves at its own crossing
+    /// point).
+    #[cold]
+    fn fallback_face(&self, vals: &[(f64, bool); 6], g: &[u32; 4], fin: usize, pos: bool) -> usize {
+        let directed = |x: usize, y: usize| -> f64 {
+            let v = vals[LOCAL_EDGE_INDEX[x][y]].0;
+            if g[x] <= g[y] {
+                v
+            } else {
+                -v
+            }
+        };
+        let sgn = if pos { 1.0 } else { -1.0 };
+        let mut best = (f64::NEG_INFINITY, (fin + 1) % 4);
+        for f in (0..4).filter(|&f| f != fin) {
+            let c = FACE_VERTS[f];
+            let m = (0..3)
+                .map(|k| sgn * directed(c[(k + 1) % 3], c[(k + 2) % 3]))
+                .fold(f64::INFINITY, f64::min);
+            if m > best.0 {
+                best = (m, f);
+            }
+        }
+        best.1
+    }
+
     /// Casts one ray; returns the composited pixel and the ray's counters.
-    pub(super) fn cast(&self, mesh: &Mesh, cam: &Camera, ray: &Ray) -> (Segment, RayStats) {
-        let ctx = RayCtx::new(ray, cam, self.max_abs);
+    #[inline(always)]
+    pub(super) fn cast<S: Shade>(
+        &self,
+        tets: &[[u32; 4]],
+        shade: &S,
+        front: &Front,
+        ctx: &RayCtx,
+        seed: &mut u32,
+    ) -> (Segment, RayStats) {
         let mut acc = Segment::default();
         let mut stats = RayStats::default();
         let mut t_min = f64::NEG_INFINITY;
         let mut exclude = u32::MAX;
         let mut first = true;
-        'rays: while let Some((bt, bf, mut t_in, mut s_in)) =
+        // The first search is seeded with the previous ray's entry face (see `first_entry`).
+        let mut hint = *seed;
+        'rays: while let Some((bt, bf, mut t_in, s_in, leaf)) =
             self.bvh
-                .first_entry(self, mesh.tets(), &ctx, t_min - self.t_eps, exclude)
+                .first_entry(self, tets, front, ctx, t_min - self.t_eps, exclude, hint)
         {
-            if !first {
+            if first {
+                *seed = leaf;
+            } else {
                 stats.reentries += 1;
             }
             first = false;
+            hint = u32::MAX;
             let (mut tet, mut fin) = (bt as usize, bf);
-            let mut carry = EdgeCarry::default();
+            let mut g = tets[tet];
+            let mut e_in = shade.end(s_in);
+            let mut edges = Edges::NONE;
             loop {
                 stats.steps += 1;
                 if stats.steps as usize > self.max_steps {
                     stats.lost += 1;
                     break 'rays;
                 }
-                let (x, fallback) = self.exit(mesh, &ctx, tet, fin, &mut carry);
+                let (x, fallback) = self.exit(ctx, tet, fin, &g, &mut edges);
                 stats.fallbacks += fallback as u64;
                 let t_out = x.t.max(t_in);
                 let l = (t_out - t_in) * self.inv_l;
+                let e_out = shade.end(x.s);
                 if l > 0.0 {
-                    composite_under(&mut acc, self.integrator.segment(s_in, x.s, l));
+                    composite_under(&mut acc, shade.segment(&e_in, &e_out, l));
                     if 1.0 - acc.alpha < TERMINATE_T {
                         break 'rays;
                     }
@@ -206,11 +255,14 @@ impl Prepared {
                 }
                 tet = nb as usize / 4;
                 fin = nb as usize % 4;
+                let g2 = tets[tet];
+                edges = edges.carried(&g, &g2, fin);
+                g = g2;
                 t_in = t_out;
-                s_in = x.s;
+                e_in = e_out;
             }
         }
-        if first && self.bvh.any_crossing(self, mesh.tets(), &ctx) {
+        if first && self.bvh.any_crossing(self, tets, ctx) {
             stats.missed += 1;
         }
         stats.filter_fallbacks = ctx.fallbacks.get();

@@ -1,0 +1,128 @@
+//! The ray caster's images are pinned bit for bit (issue 15): `reference` must stay exactly
+//! what it was when its speed work began, and `raycast` (partial) too. Each case renders a
+//! small image in f64 ([`RayCaster::render_f64`]) and hashes every bit of it with the frame's
+//! cell-step and missed-ray counts; the expected hashes were taken from the ray caster before
+//! the walk, shading and BVH changes of issue 15 (commit d6960c3, the same images as the
+//! original). A change to any pixel's last bit, or to the cells a ray visits, fails here.
+
+use algorithms::camera::{Camera, Projection, View};
+use algorithms::render::raycast::RayCaster;
+use algorithms::render::Renderer;
+use algorithms::tf::TransferFunction;
+
+/// FNV-1a over the bytes of every f64 of the image, then the two counters.
+fn hash(px: &[[f64; 4]], steps: u64, missed: u64) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut eat = |x: u64| {
+        for b in x.to_le_bytes() {
+            h ^= b as u64;
+            h = h.wrapping_mul(0x0100_0000_01b3);
+        }
+    };
+    for p in px {
+        for c in p {
+            eat(c.to_bits());
+        }
+    }
+    eat(steps);
+    eat(missed);
+    h
+}
+
+/// (mesh, tets, view, projection, integrator, expected hash).
+type Case = (
+    &'static str,
+    usize,
+    (f64, f64),
+    Projection,
+    &'static str,
+    u64,
+);
+const CASES: &[Case] = &[
+    (
+        "spx",
+        13_000,
+        (30.0, 20.0),
+        Projection::Ortho,
+        "exact",
+        0xf651_aa9d_f67b_1355,
+    ),
+    (
+        "spx",
+        13_000,
+        (157.57, -64.16),
+        Projection::Persp,
+        "exact",
+        0x6dfb_4559_efda_6dca,
+    ),
+    (
+        "spx",
+        13_000,
+        (30.0, 20.0),
+        Projection::Ortho,
+        "partial",
+        0xb27a_842e_f910_adf9,
+    ),
+    (
+        "hard-zero-volume",
+        24_000,
+        (30.0, 20.0),
+        Projection::Ortho,
+        "exact",
+        0x0f2d_dd39_52e5_9e05,
+    ),
+    (
+        "hard-negative",
+        24_000,
+        (45.0, 35.0),
+        Projection::Persp,
+        "exact",
+        0x70b2_a7d7_0ceb_973f,
+    ),
+    (
+        "hard-mpvonc",
+        24_000,
+        (10.0, 80.0),
+        Projection::Ortho,
+        "exact",
+        0x35a0_f817_b3d4_38ce,
+    ),
+    (
+        "hard-duplicates",
+        24_000,
+        (90.0, 0.0),
+        Projection::Ortho,
+        "partial",
+        0x9aa3_80ef_a6cd_a853,
+    ),
+    (
+        "torus",
+        20_000,
+        (30.0, 60.0),
+        Projection::Persp,
+        "partial",
+        0xd871_810e_edcd_4879,
+    ),
+];
+
+#[test]
+fn ray_caster_images_are_bit_identical_to_the_pinned_ones() {
+    let tf = TransferFunction::preset("default").unwrap();
+    let mut bad = Vec::new();
+    for &(name, tets, (az, el), proj, integrator, want) in CASES {
+        let mesh = datasets_gen::generate(name, Some(tets), 1).unwrap();
+        let mut rc = RayCaster::new(integrator, "raycast");
+        rc.prepare(&mesh, &tf).unwrap();
+        let cam = Camera::new(&mesh.bbox(), View::new(az, el), proj, 96, 80);
+        let (px, stats) = rc.render_f64(&mesh, &cam).unwrap();
+        assert_eq!(stats.missed, 0, "{name}: a hole");
+        let got = hash(&px, stats.steps, stats.missed);
+        println!("{name} {az},{el} {proj:?} {integrator}: {got:#018x}");
+        if got != want {
+            bad.push(format!(
+                "{name} {az},{el} {proj:?} {integrator}: {got:#018x} != {want:#018x}"
+            ));
+        }
+    }
+    assert!(bad.is_empty(), "images changed:\n{}", bad.join("\n"));
+}

@@ -44,6 +44,7 @@ use crate::error::{Error, Result};
 use crate::image::Image;
 use crate::mesh::Mesh;
 
+mod fast;
 mod filter;
 mod raster;
 
@@ -160,7 +161,19 @@ pub fn upsample(
     params: &Params,
     layers: Option<(&DepthLayers, &DepthLayers)>,
 ) -> Result<Image> {
-    filter::upsample(low, low_cam, full_cam, params, layers)
+    filter::upsample(low, low_cam, full_cam, params, layers, true)
+}
+
+/// [`upsample`] by the scalar definition of each filter (no fast paths): the yardstick the fast
+/// path is tested and benchmarked against. Same result, bit for bit, for a finite guide.
+pub fn upsample_scalar(
+    low: &Image,
+    low_cam: &Camera,
+    full_cam: &Camera,
+    params: &Params,
+    layers: Option<(&DepthLayers, &DepthLayers)>,
+) -> Result<Image> {
+    filter::upsample(low, low_cam, full_cam, params, layers, false)
 }
 
 /// The paper's 14 viewpoints: the 8 corners and the 6 faces of a cube around the dataset

@@ -428,3 +428,28 @@ fn fast_paths_equal_their_scalar_definitions() {
     }
     assert_eq!(compared, 14 * 2 * 4);
 }
+
+/// The documented defaults (`algorithms::jbu::PARAMS`, what `tetbench list` prints) are the
+/// real ones: each parses, setting it changes nothing, and the wrapper's registry entry shows
+/// that same table.
+#[test]
+fn the_documented_defaults_are_the_real_ones() {
+    let d = Params::default();
+    assert_eq!((d.method, d.k, d.sigma_r), (Method::Bilateral, 4, 0.02));
+    for p in algorithms::jbu::PARAMS {
+        let mut q = d;
+        q.set(p.name, p.default)
+            .unwrap_or_else(|e| panic!("{}: {e}", p.name));
+        assert_eq!(q, d, "{}", p.name);
+    }
+    let info = render::REGISTRY
+        .iter()
+        .find(|r| r.name == "jbu:<renderer>@<size>")
+        .unwrap();
+    let names: Vec<&str> = info.params.iter().map(|p| p.name).collect();
+    assert_eq!(names, ["method", "k", "sigma", "c", "r"]);
+    assert!(d.check().is_ok());
+    let mut bad = d;
+    assert!(matches!(bad.set("k", "x"), Err(Error::Input(_))));
+    assert!(matches!(bad.set("nope", "1"), Err(Error::Input(_))));
+}

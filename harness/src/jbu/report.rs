@@ -212,7 +212,7 @@ pub fn write_plots(rows: &[Row], plan: &Plan, dir: &Path) -> Result<()> {
 /// The paper's Table 1 (tets, where it gives them) for the datasets it shares with ours.
 fn paper_tets(ds: &str) -> &'static str {
     match ds.split(':').next().unwrap_or("") {
-        "spx" => "20 K (SPX)",
+        "spx" => "13 K (SPX)",
         "blunt" | "blunt-like" => "187 K (Blunt Fin)",
         "spx2" => "828 K (SPX2)",
         "fighter" => "240 K (F117)",
@@ -230,7 +230,7 @@ pub fn write_md(rows: &[Row], plan: &Plan, dir: &Path) -> Result<()> {
     let _ = writeln!(s, "# JBU: Callahan & Silva, Fig. 3–5 (`tetbench jbu`)\n");
     let _ = writeln!(
         s,
-        "Protocol as the paper's §5: each dataset rendered from {} views (the 8 corners and 6 faces of a cube around it; view index 0–7 corners, 8–13 faces), at {full}² and at {} upsampled to {full}²; RMSE against the same renderer's {full}² image from the same view (CONVENTIONS §6, premultiplied linear RGBA). Times are the median over the views on {} threads; `time` = low-res render + depth layers + filter. Methods: `bilateral` (default: bilinear tent × range term on the extrapolated boundary-depth guide, k = 4, σ_r = 0.02 of the depth normalisation), `linear` (bilinear), `nearest`, `gauss` (the earlier Gaussian-window filter). Raw rows: [jbu.csv](jbu.csv), one per view and method.\n",
+        "Protocol as the paper's §5: each dataset rendered from {} of the 14 cube views (the 8 corners and 6 faces of a cube around it; `view` 0–7 corners, 8–13 faces), at {full}² and at {} upsampled to {full}²; RMSE against the same renderer's {full}² image from the same view (CONVENTIONS §6, premultiplied linear RGBA). Times are the median over the views on {} threads; `time` = low-res render + depth layers + filter. Methods: `bilateral` (default: bilinear tent × range term on the extrapolated boundary-depth guide, k = 4, σ_r = 0.02 of the depth normalisation), `linear` (bilinear), `nearest`, `gauss` (the earlier Gaussian-window filter). Raw rows: [jbu.csv](jbu.csv), one per view and method.\n",
         plan.views.len(),
         lows.join(", "),
         rows.first().map_or(0, |r| r.threads)

@@ -196,6 +196,13 @@ pub struct JbuArgs {
     /// low sizes take at least 3.
     #[arg(long, default_value_t = 1)]
     pub repeats: usize,
+    /// Only the first N of the 14 cube views (0–7 corners, 8–13 faces).
+    #[arg(long)]
+    pub views: Option<usize>,
+    /// Redraw the plots and jbu.md from OUT/jbu.csv (e.g. rows of several runs put together)
+    /// instead of running.
+    #[arg(long)]
+    pub replot: bool,
 }
 
 impl JbuArgs {
@@ -209,6 +216,9 @@ impl JbuArgs {
             plan.renderers = r.clone();
         }
         plan.repeats = self.repeats.max(1);
+        if let Some(n) = self.views {
+            plan.views.truncate(n.max(1));
+        }
         plan
     }
 }

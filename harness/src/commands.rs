@@ -202,6 +202,7 @@ pub fn run(cli: Cli) -> Result<()> {
             }
             Ok(())
         }
+        Command::Jbu(args) if args.replot => crate::jbu::replot(&args.out),
         Command::Jbu(args) => crate::jbu::run(&args.to_plan(), &args.out),
     }
 }

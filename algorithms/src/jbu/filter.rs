@@ -19,15 +19,15 @@ fn to_low(i: usize, full: u32, low: u32, scale: f64) -> f64 {
 /// texture unit's clamp-to-edge), the weight `f` of the second, and the offsets `d0`, `d1` from
 /// the full-res pixel centre to the two sample centres in full-res pixels.
 #[derive(Clone, Copy)]
-struct Axis {
-    a0: u32,
-    a1: u32,
-    f: f32,
-    d0: f32,
-    d1: f32,
+pub(super) struct Axis {
+    pub(super) a0: u32,
+    pub(super) a1: u32,
+    pub(super) f: f32,
+    pub(super) d0: f32,
+    pub(super) d1: f32,
 }
 
-fn axis(u: f64, n: u32, omega: f64) -> Axis {
+pub(super) fn axis(u: f64, n: u32, omega: f64) -> Axis {
     let x = (u - 0.5).clamp(0.0, (n - 1) as f64);
     let a0 = (x.floor() as u32).min(n - 1);
     let a1 = (a0 + 1).min(n - 1);
@@ -44,7 +44,7 @@ fn axis(u: f64, n: u32, omega: f64) -> Axis {
 /// minmod of the backward and forward differences: the smaller one-sided slope when both have
 /// the same sign, else 0. Next to a depth edge it takes the slope of the side the pixel is on.
 #[inline]
-fn minmod(a: f32, b: f32) -> f32 {
+pub(super) fn minmod(a: f32, b: f32) -> f32 {
     if a * b <= 0.0 {
         0.0
     } else if a.abs() < b.abs() {
@@ -57,7 +57,7 @@ fn minmod(a: f32, b: f32) -> f32 {
 /// The guide's slope in x and y at pixel (i, j) per layer (normalised depth per full-res
 /// pixel), by [`minmod`]; at the image border the one inner difference.
 #[inline]
-fn slopes<const K: usize>(
+pub(super) fn slopes<const K: usize>(
     d: &[f32],
     i: usize,
     j: usize,
@@ -94,14 +94,14 @@ fn one_or_minmod(back: f32, fwd: f32) -> f32 {
 
 /// Weight mass (of at most 1: the bilinear weights sum to 1) below which no bilinear sample is
 /// taken to lie on the pixel's side of a depth edge, and the wider window decides.
-const W_MIN: f32 = 1e-3;
+pub(super) const W_MIN: f32 = 1e-3;
 
 /// Range weight above which a sample counts as on the pixel's side (no depth edge).
-const G_FLAT: f32 = 0.99;
+pub(super) const G_FLAT: f32 = 0.99;
 
 /// A low-res sample with its depth-layer vector (unused layers 0) and its number of valid
 /// layers (at most k).
-type Sample = ([f32; 4], [f32; 4], usize);
+pub(super) type Sample = ([f32; 4], [f32; 4], usize);
 
 pub(super) fn upsample(
     low: &Image,
@@ -109,6 +109,7 @@ pub(super) fn upsample(
     full_cam: &Camera,
     params: &Params,
     layers: Option<(&DepthLayers, &DepthLayers)>,
+    fast: bool,
 ) -> Result<Image> {
     let (w, h) = (full_cam.width, full_cam.height);
     let (lw, lh) = (low.width, low.height);
@@ -204,11 +205,15 @@ pub(super) fn upsample(
                     });
             } else {
                 let cols: Vec<Axis> = ux.iter().map(|&u| axis(u, lw, omega)).collect();
-                match k {
-                    1 => f.edge_aware::<1>(&mut out, &cols, &uy, omega, lh),
-                    2 => f.edge_aware::<2>(&mut out, &cols, &uy, omega, lh),
-                    3 => f.edge_aware::<3>(&mut out, &cols, &uy, omega, lh),
-                    _ => f.edge_aware::<4>(&mut out, &cols, &uy, omega, lh),
+                match (k, fast) {
+                    (1, false) => f.edge_aware::<1>(&mut out, &cols, &uy, omega, lh),
+                    (2, false) => f.edge_aware::<2>(&mut out, &cols, &uy, omega, lh),
+                    (3, false) => f.edge_aware::<3>(&mut out, &cols, &uy, omega, lh),
+                    (_, false) => f.edge_aware::<4>(&mut out, &cols, &uy, omega, lh),
+                    (1, true) => f.edge_aware_fast::<1>(&mut out, &cols, &uy, omega, lh),
+                    (2, true) => f.edge_aware_fast::<2>(&mut out, &cols, &uy, omega, lh),
+                    (3, true) => f.edge_aware_fast::<3>(&mut out, &cols, &uy, omega, lh),
+                    (_, true) => f.edge_aware_fast::<4>(&mut out, &cols, &uy, omega, lh),
                 }
             }
         }
@@ -261,12 +266,12 @@ impl Window {
     }
 }
 
-struct Filter<'a> {
-    full: &'a DepthLayers,
-    samples: &'a [Sample],
-    lw: usize,
-    inv2s2: f32,
-    inv2c2: f32,
+pub(super) struct Filter<'a> {
+    pub(super) full: &'a DepthLayers,
+    pub(super) samples: &'a [Sample],
+    pub(super) lw: usize,
+    pub(super) inv2s2: f32,
+    pub(super) inv2c2: f32,
     win: &'a Window,
 }
 
@@ -281,7 +286,7 @@ impl Filter<'_> {
     /// largest exponent is subtracted), so that a pixel whose samples all differ in depth by many
     /// σ_r takes the best-matching ones. With `grad` the range term compares each sample with
     /// the guide extrapolated to it along the pixel's slopes.
-    fn window(
+    pub(super) fn window(
         &self,
         i: usize,
         j: usize,
@@ -343,7 +348,8 @@ impl Filter<'_> {
         }
     }
 
-    /// The default filter: eq. (3) with the bilinear tent as spatial kernel f (the support of
+    /// The default filter's scalar definition ([`Filter::edge_aware_fast`] is its fast path,
+    /// bit-identical): eq. (3) with the bilinear tent as spatial kernel f (the support of
     /// the linear interpolation it replaces) and the range kernel g of eq. (4) on the distance
     /// between each sample's layer vector and the full-size guide at the pixel extrapolated to
     /// the sample along its [`minmod`] slopes. Where the guide is planar across the 2×2 samples,
@@ -447,8 +453,8 @@ impl Filter<'_> {
 /// boundary (an oblique silhouette, the rim of a cavity), and there the image is continuous, so
 /// a sample just outside such a rim still counts. Other count differences (layers cut off at k)
 /// compare the padded vectors (missing layers 1.0).
-#[inline]
-fn range_d2<const K: usize>(
+#[inline(always)]
+pub(super) fn range_d2<const K: usize>(
     pred: &[f32; K],
     rp: &[f32; K],
     np: usize,
@@ -499,16 +505,26 @@ fn range_d2<const K: usize>(
 const EXP_STEPS: f32 = 64.0;
 const EXP_END: f32 = 24.0;
 
+/// The table of [`exp_neg`]: e^−i/[`EXP_STEPS`] for i = 0..=EXP_END·EXP_STEPS + 1.
+pub(super) fn exp_table() -> &'static [f32] {
+    static TABLE: std::sync::OnceLock<Vec<f32>> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        (0..=(EXP_END * EXP_STEPS) as usize + 1)
+            .map(|i| (-(i as f64) / EXP_STEPS as f64).exp() as f32)
+            .collect()
+    })
+}
+
 /// e^−x for x ≥ 0 from a table with linear interpolation (relative error < 1e-4), 0 beyond
 /// [`EXP_END`] and for NaN/inf. The filter spends most of its time here.
 #[inline]
 fn exp_neg(x: f32) -> f32 {
-    static TABLE: std::sync::OnceLock<Vec<f32>> = std::sync::OnceLock::new();
-    let t = TABLE.get_or_init(|| {
-        (0..=(EXP_END * EXP_STEPS) as usize + 1)
-            .map(|i| (-(i as f64) / EXP_STEPS as f64).exp() as f32)
-            .collect()
-    });
+    exp_neg_in(exp_table(), x)
+}
+
+/// [`exp_neg`] with the table given (fetched once per filter call).
+#[inline(always)]
+pub(super) fn exp_neg_in(t: &[f32], x: f32) -> f32 {
     if x.is_nan() || x >= EXP_END {
         return 0.0;
     }

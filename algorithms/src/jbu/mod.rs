@@ -43,7 +43,9 @@ use crate::camera::{Camera, View};
 use crate::error::{Error, Result};
 use crate::image::Image;
 use crate::mesh::Mesh;
+use crate::plugin::ParamInfo;
 
+mod fast;
 mod filter;
 mod raster;
 
@@ -108,19 +110,75 @@ pub struct Params {
     pub radius: usize,
 }
 
+/// The filter's options, as `jbu:<renderer>@<size>,key=value` takes them: the one place their
+/// defaults are written ([`Params::default`] is built from this table).
+pub const PARAMS: &[ParamInfo] = &[
+    ParamInfo {
+        name: "method",
+        default: "bilateral",
+        doc: "nearest, linear, bilateral or gauss (see algorithms::jbu)",
+    },
+    ParamInfo {
+        name: "k",
+        default: "4",
+        doc: "boundary depth layers of the guide, 1..4 (bilateral, gauss)",
+    },
+    ParamInfo {
+        name: "sigma",
+        default: "0.02",
+        doc: "range sigma in units of the depth normalisation (1 = the bounding sphere's diameter along the view axis; bilateral, gauss)",
+    },
+    ParamInfo {
+        name: "c",
+        default: "0.03",
+        doc: "colour-consistency sigma on premultiplied RGBA at depth edges (bilateral)",
+    },
+    ParamInfo {
+        name: "r",
+        default: "2",
+        doc: "window radius in low-res pixels, 1..8: 2r x 2r samples (gauss; bilateral's fallback)",
+    },
+];
+
 impl Default for Params {
+    /// The defaults of [`PARAMS`].
     fn default() -> Self {
-        Params {
+        let mut p = Params {
             method: Method::Bilateral,
-            k: 4,
-            sigma_r: 0.02,
-            sigma_c: 0.03,
-            radius: 2,
+            k: 1,
+            sigma_r: 1.0,
+            sigma_c: 1.0,
+            radius: 1,
+        };
+        for i in PARAMS {
+            // The table is a constant; tests/tests/jbu.rs checks every default parses.
+            let _ = p.set(i.name, i.default);
         }
+        p
     }
 }
 
 impl Params {
+    /// Sets option `key` (a [`PARAMS`] name) from its text; `Error::Input` names a bad key or
+    /// value (ranges are checked by [`Params::check`]).
+    pub fn set(&mut self, key: &str, value: &str) -> Result<()> {
+        let v = value.trim();
+        let bad = || Error::Input(format!("jbu: bad value in '{key}={value}'"));
+        match key.trim() {
+            "method" => self.method = Method::parse(v)?,
+            "k" => self.k = v.parse().map_err(|_| bad())?,
+            "sigma" => self.sigma_r = v.parse().map_err(|_| bad())?,
+            "c" => self.sigma_c = v.parse().map_err(|_| bad())?,
+            "r" => self.radius = v.parse().map_err(|_| bad())?,
+            other => {
+                return Err(Error::Input(format!(
+                    "jbu: unknown option '{other}' (known: method, k, sigma, c, r)"
+                )))
+            }
+        }
+        Ok(())
+    }
+
     /// Checks the ranges; `Error::Input` names the bad value.
     pub fn check(&self) -> Result<()> {
         if !(1..=MAX_LAYERS).contains(&self.k) {
@@ -160,7 +218,19 @@ pub fn upsample(
     params: &Params,
     layers: Option<(&DepthLayers, &DepthLayers)>,
 ) -> Result<Image> {
-    filter::upsample(low, low_cam, full_cam, params, layers)
+    filter::upsample(low, low_cam, full_cam, params, layers, true)
+}
+
+/// [`upsample`] by the scalar definition of each filter (no fast paths): the yardstick the fast
+/// path is tested and benchmarked against. Same result, bit for bit, for a finite guide.
+pub fn upsample_scalar(
+    low: &Image,
+    low_cam: &Camera,
+    full_cam: &Camera,
+    params: &Params,
+    layers: Option<(&DepthLayers, &DepthLayers)>,
+) -> Result<Image> {
+    filter::upsample(low, low_cam, full_cam, params, layers, false)
 }
 
 /// The paper's 14 viewpoints: the 8 corners and the 6 faces of a cube around the dataset

@@ -89,8 +89,20 @@ impl BoundaryRaster {
         self.tris.len()
     }
 
-    /// The first `k` boundary depths per pixel of `camera`'s image.
+    /// The first `k` boundary depths per pixel of `camera`'s image. Each face scans, per row,
+    /// only the pixel centres between its edges' crossings of the row (widened by a pixel on
+    /// each side), each tested by the exact predicate: the same pixels and depths as
+    /// [`BoundaryRaster::layers_scalar`], which tests every centre of the face's bounding box.
     pub fn layers(&self, camera: &Camera, k: usize) -> DepthLayers {
+        self.rasterise(camera, k, true)
+    }
+
+    /// [`BoundaryRaster::layers`] by the plain bounding-box scan (the definition).
+    pub fn layers_scalar(&self, camera: &Camera, k: usize) -> DepthLayers {
+        self.rasterise(camera, k, false)
+    }
+
+    fn rasterise(&self, camera: &Camera, k: usize, narrow: bool) -> DepthLayers {
         let k = k.clamp(1, MAX_LAYERS);
         let (w, h) = (camera.width as usize, camera.height as usize);
         let r = camera.radius.max(f64::MIN_POSITIVE);
@@ -168,9 +180,32 @@ impl BoundaryRaster {
                         owns_edge(&v2, &v0),
                         owns_edge(&v0, &v1),
                     ];
+                    let edges = [(&v1, &v2), (&v2, &v0), (&v0, &v1)];
                     for j in j0 as usize..=j1 as usize {
                         let py = j as f64 + 0.5;
-                        for i in i0 as usize..=i1 as usize {
+                        let (mut lo, mut hi) = (i0, i1);
+                        if narrow {
+                            // Each edge's function is linear along the row: e(px) = s·px + c
+                            // with s = a.y − b.y; inside is e ≥ 0. The root bounds the span on
+                            // one side; a pixel of margin covers its rounding (|s| ≥ 1e-3).
+                            for (a, b) in edges {
+                                let s = a.y - b.y;
+                                if s.abs() < 1e-3 {
+                                    continue;
+                                }
+                                let c = a.x * (b.y - py) - (a.y - py) * b.x;
+                                let x = -c / s - 0.5;
+                                if s > 0.0 {
+                                    lo = lo.max((x - 1.0).ceil());
+                                } else {
+                                    hi = hi.min((x + 1.0).floor());
+                                }
+                            }
+                            if lo > hi {
+                                continue;
+                            }
+                        }
+                        for i in lo as usize..=hi as usize {
                             let px = i as f64 + 0.5;
                             let e = [
                                 orient(&v1, &v2, px, py),

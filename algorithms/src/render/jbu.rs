@@ -8,10 +8,8 @@
 //! - `<low size>`: `N` (the longer side of the low image is N pixels, the other side keeps the
 //!   full image's aspect ratio) or `WxH`. It must not exceed the full image; equal to it, the
 //!   inner image is returned unchanged.
-//! - options, comma-separated after the size: `method=bilateral|gauss|linear|nearest` (default
-//!   bilateral; see [`crate::jbu`] for each), `k=1..4` depth layers (default 4), `sigma=F`
-//!   range σ on normalised depth (default 0.02), `c=F` colour-consistency σ on premultiplied
-//!   RGBA (default 0.03), `r=1..8` low-res samples on each side (default 2: a 4×4 window).
+//! - options, comma-separated after the size: `method`, `k`, `sigma`, `c`, `r`, with their
+//!   defaults and meaning in [`crate::jbu::PARAMS`] (what `tetbench list` prints).
 //!
 //! Examples: `jbu:raycast@128`, `jbu:cpu-pt@256x256`, `jbu:raycast@128,method=linear`,
 //! `jbu:raycast@256,k=4,sigma=0.02`.
@@ -23,10 +21,9 @@
 use std::time::Instant;
 
 use super::{ms_since, Family, Frame, FrameTimes, RenderOptions, Renderer, RendererInfo};
-use crate::plugin::ParamInfo;
 use crate::camera::Camera;
 use crate::error::{Error, Result};
-use crate::jbu::{low_camera, Method, Params, Upsampler};
+use crate::jbu::{low_camera, Params, Upsampler};
 use crate::mesh::Mesh;
 use crate::tf::TransferFunction;
 
@@ -35,7 +32,7 @@ use crate::tf::TransferFunction;
 pub static JBU: RendererInfo = RendererInfo {
     name: "jbu:<renderer>@<size>",
     description: "joint bilateral upsampling of <renderer> rendered at <size> (N or WxH); \
-                  options ,method=bilateral|gauss|linear|nearest ,k=1..4 ,sigma=0.02 ,c=0.03 ,r=2",
+                  options ,key=value of the params below",
     sorts: &[],
     integrators: &["as <renderer>"],
     family: Family::Wrapper,
@@ -44,28 +41,7 @@ pub static JBU: RendererInfo = RendererInfo {
     table_sorts: &[],
     default_integrator: "as <renderer>",
     // Given in the name (`jbu:raycast@128,k=2`); `--param` keys go to the inner renderer.
-    params: &[
-        ParamInfo {
-            name: "method",
-            default: "bilateral",
-            doc: "bilateral, linear or nearest",
-        },
-        ParamInfo {
-            name: "k",
-            default: "2",
-            doc: "depth layers of the bilateral filter, 1..4",
-        },
-        ParamInfo {
-            name: "sigma",
-            default: "0.01",
-            doc: "range sigma of the bilateral weights",
-        },
-        ParamInfo {
-            name: "r",
-            default: "2",
-            doc: "filter radius in low-res pixels",
-        },
-    ],
+    params: crate::jbu::PARAMS,
     make: |_| {
         Err(Error::Input(
             "jbu: give the inner renderer and low size, e.g. jbu:raycast@128".into(),
@@ -150,16 +126,7 @@ impl Spec {
             let (k, v) = opt
                 .split_once('=')
                 .ok_or_else(|| bad(format!("option '{opt}' is not key=value")))?;
-            let v = v.trim();
-            let badv = || bad(format!("bad value in '{opt}'"));
-            match k.trim() {
-                "method" => params.method = Method::parse(v).map_err(|e| bad(e.to_string()))?,
-                "k" => params.k = v.parse().map_err(|_| badv())?,
-                "sigma" => params.sigma_r = v.parse().map_err(|_| badv())?,
-                "c" => params.sigma_c = v.parse().map_err(|_| badv())?,
-                "r" => params.radius = v.parse().map_err(|_| badv())?,
-                other => return Err(bad(format!("unknown option '{other}'"))),
-            }
+            params.set(k, v).map_err(|e| bad(e.to_string()))?;
         }
         params.check().map_err(|e| bad(e.to_string()))?;
         super::info(inner).map_err(|e| Error::Input(format!("renderer '{name}': {e}")))?;

@@ -19,7 +19,7 @@ impl PaperTable for Figures {
         "JBU Fig. 3/4 and Fig. 5"
     }
     fn about(&self) -> &'static str {
-        "Joint bilateral upsampling: time per rendering resolution (JBU Fig. 3/4) and RMSE of bilateral against linear upsampling (Fig. 5), for every CPU and GPU renderer of the papers' families."
+        "Joint bilateral upsampling on the paper's protocol (14 cube views; 128², 256², 512² upsampled to 1024²): time per rendering resolution (JBU Fig. 3/4) and mean and worst RMSE of bilateral against linear upsampling (Fig. 5), for the ray caster and cpu-pt (GPU renderers on a real GPU)."
     }
     fn run(&self, ctx: &Ctx) -> Result<Done> {
         if let Some(d) = ctx.skip_unsharded() {
@@ -28,7 +28,7 @@ impl PaperTable for Figures {
         let plan = crate::jbu::Plan::new(ctx.quick);
         crate::jbu::run(&plan, &ctx.out)?;
         Ok(Done::Files(format!(
-            "[{0}.csv]({0}.csv) and the `{0}_time_*.svg` (Fig. 3/4), `{0}_rmse_*.svg` (Fig. 5) plots",
+            "[{0}.md]({0}.md), [{0}.csv]({0}.csv) and the `{0}_time_*.png|svg` (Fig. 3/4), `{0}_rmse_*.png|svg` (Fig. 5) plots",
             self.id()
         )))
     }
@@ -39,13 +39,14 @@ impl PaperTable for Figures {
             return Ok(Vec::new());
         }
         let (rows, plan) = crate::jbu::read_rows(&csv)?;
-        crate::jbu::write_plots(&rows, &plan, dir)?;
+        crate::jbu::report::write_plots(&rows, &plan, dir)?;
+        crate::jbu::report::write_md(&rows, &plan, dir)?;
         Ok(plan
             .renderers
             .iter()
             .flat_map(|r| {
                 let f = r.replace(|c: char| !c.is_ascii_alphanumeric() && c != '-', "_");
-                ["time", "rmse"].map(|k| dir.join(format!("jbu_{k}_{f}.svg")))
+                ["time", "rmse"].map(|k| dir.join(format!("jbu_{k}_{f}.png")))
             })
             .collect())
     }

@@ -183,7 +183,7 @@ pub fn write_plots(rows: &[Row], plan: &Plan, dir: &Path) -> Result<()> {
         }
         let n = mine.first().map_or(0, |c| c.views);
         let title = format!(
-            "{rname}: median time per frame over {n} views, upsampled to {0}² (JBU Fig. 3/4)",
+            "{rname}: median frame time, {n} views, to {0}² (JBU Fig. 3/4)",
             plan.full
         );
         let x = "rendered resolution (pixels per side; the largest is the full-size render)";

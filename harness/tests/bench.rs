@@ -209,6 +209,65 @@ views = { rotate = { frames = 3, axis = "y" } }
     assert_eq!(imgs, 6, "EXR + PNG per view");
 }
 
+/// An `optional` renderer that cannot run here (VTK's peer with `TETBENCH_VTK_PYTHON` unset)
+/// gives failed rows whose note says why, and the other renderer's rows are measured; the same
+/// entry without `optional` refuses the experiment (exit 2, one line).
+#[test]
+fn optional_renderer_not_enabled_gives_a_failed_row_not_an_abort() {
+    let d = tmpdir("optional");
+    let run = |optional: bool| {
+        let cfg = d.join(format!("opt{optional}.toml"));
+        std::fs::write(
+            &cfg,
+            format!(
+                r#"
+datasets = ["spx:800"]
+renderers = [{{ name = "vtk-pt", optional = {optional} }}, {{ name = "cpu-pt" }}]
+sizes = ["16x16"]
+repeats = 1
+warmup = 0
+error = false
+[views]
+named = ["0,0"]
+"#
+            ),
+        )
+        .unwrap();
+        let out = d.join(format!("out{optional}"));
+        let o = Command::new(env!("CARGO_BIN_EXE_tetbench"))
+            .args([
+                "bench",
+                cfg.to_str().unwrap(),
+                "--out",
+                out.to_str().unwrap(),
+            ])
+            .arg("--no-plots")
+            .env_remove("TETBENCH_VTK_PYTHON")
+            .output()
+            .expect("run tetbench");
+        (o, out)
+    };
+    let (o, out) = run(true);
+    let (head, rows) = read_csv(&out.join("results.csv"));
+    assert_eq!(rows.len(), 2, "{}", String::from_utf8_lossy(&o.stderr));
+    let col = |n: &str| head.iter().position(|h| h == n).unwrap();
+    let vtk = rows
+        .iter()
+        .find(|r| r[col("renderer")] == "vtk-pt")
+        .unwrap();
+    assert_eq!(vtk[col("total_ms")], "NaN");
+    assert!(vtk[col("note")].contains("TETBENCH_VTK_PYTHON"), "{vtk:?}");
+    let cpu = rows
+        .iter()
+        .find(|r| r[col("renderer")] == "cpu-pt")
+        .unwrap();
+    assert!(cpu[col("total_ms")].parse::<f64>().unwrap() > 0.0);
+    assert!(cpu[col("note")].is_empty());
+    let (o, out) = run(false);
+    assert_one_line_exit2(&o, &["vtk-pt", "TETBENCH_VTK_PYTHON"]);
+    assert!(!out.join("results.csv").exists());
+}
+
 fn assert_one_line_exit2(o: &Output, want: &[&str]) {
     let lines = stderr_lines(o);
     assert_eq!(o.status.code(), Some(2), "{lines:?}");

@@ -52,7 +52,13 @@ pub struct Prepared {
 impl Prepared {
     /// Makes the variant's renderer and prepares it, timing setup and counting its heap bytes.
     pub fn new(exp: &Experiment, var: &Variant, dataset: &str, mesh: &Mesh) -> Result<Self> {
-        let mut renderer = render::make(&var.renderer, &var.options)?;
+        let mut renderer: Box<dyn Renderer> = match &var.unavailable {
+            Some(why) => Box::new(Unavailable {
+                name: var.renderer.clone(),
+                why: why.clone(),
+            }),
+            None => render::make(&var.renderer, &var.options)?,
+        };
         let fresh = mesh.clone();
         let t0 = Instant::now();
         let (prep, bytes, peak) = alloc::measure(|| isolated(|| renderer.prepare(&fresh, &exp.tf)));
@@ -90,6 +96,34 @@ impl Prepared {
             failed: prep.err().map(|e| format!("prepare: {e}")),
             base,
         })
+    }
+}
+
+/// An `optional` renderer that cannot run here: its `prepare` fails with the reason, so each of
+/// its rows is a failed row that says why (see `RendererSpec::optional`).
+struct Unavailable {
+    name: String,
+    why: String,
+}
+
+impl Renderer for Unavailable {
+    fn name(&self) -> String {
+        self.name.clone()
+    }
+    fn integrator_name(&self) -> String {
+        String::new()
+    }
+    fn prepare(&mut self, _: &Mesh, _: &TransferFunction) -> Result<()> {
+        Err(Error::Input(format!(
+            "not run on this machine: {}",
+            self.why
+        )))
+    }
+    fn render(&mut self, _: &Mesh, _: &Camera) -> Result<algorithms::render::Frame> {
+        Err(Error::Input(format!(
+            "not run on this machine: {}",
+            self.why
+        )))
     }
 }
 

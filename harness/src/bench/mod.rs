@@ -107,7 +107,8 @@ pub fn preflight(exp: &Experiment, out: &Path) -> Result<()> {
             }
         }
     }
-    for v in &exp.variants {
+    // An `optional` variant that cannot be made here is measured as failed rows instead.
+    for v in exp.variants.iter().filter(|v| v.unavailable.is_none()) {
         render::make(&v.renderer, &v.options)
             .map_err(|e| Error::Input(format!("variant '{}': {e}", v.label)))?;
     }

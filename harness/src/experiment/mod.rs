@@ -173,6 +173,12 @@ pub struct RendererSpec {
     /// and the run says so): e.g. a GPU renderer on a software rasteriser.
     #[serde(default)]
     pub max_tets: Option<usize>,
+    /// A renderer that may not be able to run on this machine (VTK's peers without
+    /// `TETBENCH_VTK_PYTHON`, a GPU renderer without an adapter): when it cannot be made, its
+    /// rows are failed rows whose note says why (NaN times), and the rest of the run goes on,
+    /// instead of the whole experiment being refused.
+    #[serde(default)]
+    pub optional: bool,
 }
 
 /// Views: named `AZ,EL` strings, N Fibonacci views, and a rotation path.
@@ -217,6 +223,8 @@ pub struct Variant {
     pub renderer: String,
     /// See [`RendererSpec::max_tets`].
     pub max_tets: Option<usize>,
+    /// Why an `optional` renderer cannot run here (see [`RendererSpec::optional`]).
+    pub unavailable: Option<String>,
     pub options: RenderOptions,
     pub label: String,
     pub sort: String,
@@ -517,17 +525,43 @@ pub fn expand_renderer(r: &RendererSpec) -> Result<Vec<Variant>> {
                     .map(|(k, v)| (k.clone(), v.clone()))
                     .collect(),
             };
-            let made = render::make(&r.name, &options)?;
+            let params_label = || {
+                if r.params.is_empty() {
+                    String::new()
+                } else {
+                    let kv: Vec<String> =
+                        r.params.iter().map(|(k, v)| format!("{k}={v}")).collect();
+                    format!("[{}]", kv.join(","))
+                }
+            };
+            let made = match render::make(&r.name, &options) {
+                Ok(m) => m,
+                Err(e) if r.optional => {
+                    // Named as it would be: the default sort and integrator where none is given.
+                    let sort = s.clone().unwrap_or_else(|| info.default_sort.to_string());
+                    let integrator = i
+                        .clone()
+                        .unwrap_or_else(|| info.default_integrator.to_string());
+                    out.push(Variant {
+                        renderer: r.name.clone(),
+                        max_tets: r.max_tets,
+                        unavailable: Some(e.to_string()),
+                        options,
+                        label: variant_label(&r.name, &sort, &integrator) + &params_label(),
+                        sort,
+                        integrator,
+                    });
+                    continue;
+                }
+                Err(e) => return Err(e),
+            };
             let sort = made.sort_name();
             let integrator = made.integrator_name();
-            let mut label = variant_label(&made.name(), &sort, &integrator);
-            if !r.params.is_empty() {
-                let kv: Vec<String> = r.params.iter().map(|(k, v)| format!("{k}={v}")).collect();
-                label.push_str(&format!("[{}]", kv.join(",")));
-            }
+            let label = variant_label(&made.name(), &sort, &integrator) + &params_label();
             out.push(Variant {
                 renderer: made.name(),
                 max_tets: r.max_tets,
+                unavailable: None,
                 options,
                 label,
                 sort,
@@ -568,6 +602,29 @@ mod tests {
         let az: Vec<f64> = views.iter().map(|v| v.view.azimuth).collect();
         assert_eq!(az, vec![0.0, 270.0, 180.0, 90.0]);
         assert!(views.iter().all(|v| (v.view.elevation - 20.0).abs() < 1e-9));
+    }
+
+    /// An `optional` renderer that cannot be made becomes a variant that says why; the same
+    /// entry without `optional` refuses the experiment.
+    #[test]
+    fn optional_renderer_that_cannot_run_is_kept_with_its_reason() {
+        let spec = |optional| RendererSpec {
+            name: "cpu-pt".into(),
+            sorts: Some(vec!["bubble".into()]),
+            integrators: Some(vec!["partial".into()]),
+            optional,
+            ..Default::default()
+        };
+        let v = expand_renderer(&spec(true)).unwrap();
+        assert_eq!(v.len(), 1);
+        assert_eq!(v[0].label, "cpu-pt/bubble/partial");
+        assert!(v[0].unavailable.as_deref().unwrap().contains("bubble"));
+        assert!(expand_renderer(&spec(false)).is_err());
+        let ok = RendererSpec {
+            sorts: None,
+            ..spec(true)
+        };
+        assert!(expand_renderer(&ok).unwrap()[0].unavailable.is_none());
     }
 
     #[test]

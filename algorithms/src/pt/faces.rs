@@ -74,7 +74,7 @@ fn on_face(
         .iter()
         .fold(0.0f64, |m, q| m.max(q[0].abs()).max(q[1].abs()));
     // Below this the area is rounding noise of the cross products: an edge-on face.
-    if !(area.abs() > 1e-12 * scale * scale) || !area.is_finite() {
+    if !area.is_finite() || area.abs() <= 1e-12 * scale * scale {
         return None;
     }
     let (la, lb, lc) = (wa / area, wb / area, wc / area);

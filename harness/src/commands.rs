@@ -176,7 +176,9 @@ pub fn run(cli: Cli) -> Result<()> {
                 (None, false) => crate::papers::Sweep::Merge(merge),
                 (None, true) => crate::papers::Sweep::Whole,
             };
-            crate::reproduce::run(quick, &out, &only, sweep)
+            let failed = crate::reproduce::run(quick, &out, &only, sweep)?;
+            FAILED_ROWS.store(failed, std::sync::atomic::Ordering::SeqCst);
+            Ok(())
         }
         Command::Plot { dir } if dir.join("raw").is_dir() => {
             // A `reproduce` directory: every table's plots from its raw rows.
@@ -223,13 +225,13 @@ fn slurm_commands(quick: bool, out: &std::path::Path, only: &[String], n: usize)
     }
     let o = out.display();
     let shards: Vec<String> = (0..n).map(|i| format!("{o}/shard-{i}")).collect();
-    println!("# {n}-task array, then the merge once every task succeeded. Add -p <partition> --gres=gpu:1 for the GPU tables.");
+    println!("# {n}-task array, then the merge once every task succeeded (a shard whose only trouble is failed rows, exit 3, counts as succeeded: the merge shows them). Add -p <partition> --gres=gpu:1 for the GPU tables.");
     println!(
-        "array=$(sbatch --parsable --array=0-{} --cpus-per-task=2 --wrap 'export RAYON_NUM_THREADS=$SLURM_CPUS_PER_TASK; {exe} reproduce{flags} --out {o}/shard-$SLURM_ARRAY_TASK_ID --shard $SLURM_ARRAY_TASK_ID/{n}')",
+        "array=$(sbatch --parsable --array=0-{} --cpus-per-task=2 --wrap 'export RAYON_NUM_THREADS=$SLURM_CPUS_PER_TASK; {exe} reproduce{flags} --out {o}/shard-$SLURM_ARRAY_TASK_ID --shard $SLURM_ARRAY_TASK_ID/{n}; rc=$?; [ $rc -eq 3 ] && rc=0; exit $rc')",
         n - 1
     );
     println!(
-        "sbatch --dependency=afterok:$array --wrap '{exe} reproduce{flags} --out {o} --merge {}'",
+        "sbatch --dependency=afterok:$array --wrap '{exe} reproduce{flags} --out {o} --merge {}; rc=$?; [ $rc -eq 3 ] && rc=0; exit $rc'",
         shards.join(" ")
     );
     Ok(())

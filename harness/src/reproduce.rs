@@ -106,13 +106,16 @@ fn run_one(t: &dyn PaperTable, ctx: &Ctx, machine: &str, date: &str) -> Result<S
 }
 
 /// Runs every table (or those in `only`), writing tables, plots and `DIR/README.md`.
-pub fn run(quick: bool, out: &Path, only: &[String], sweep: crate::papers::Sweep) -> Result<()> {
+/// Returns how many measurements failed (each is a row with its message in its table's raw
+/// `results.csv`, and shown as failed in the table).
+pub fn run(quick: bool, out: &Path, only: &[String], sweep: crate::papers::Sweep) -> Result<usize> {
     let tables = select(only)?;
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
     let ctx = Ctx {
         quick,
         out: out.to_path_buf(),
         sweep,
+        failed: Default::default(),
     };
     let machine = crate::sysinfo::machine();
     let date = crate::sysinfo::now_utc();
@@ -124,7 +127,13 @@ pub fn run(quick: bool, out: &Path, only: &[String], sweep: crate::papers::Sweep
     let total = started.elapsed().as_secs_f64();
     write_readme(out, quick, only, &machine, &date, total)?;
     println!("wall_time_s: {total:.1}");
-    Ok(())
+    let failed = ctx.failed.load(std::sync::atomic::Ordering::SeqCst);
+    if failed > 0 {
+        eprintln!(
+            "tetbench: {failed} measurement(s) failed; the tables show them as failed and list their messages"
+        );
+    }
+    Ok(failed)
 }
 
 /// The README lists every table: this run's and, after an `--only` run, the earlier ones.

@@ -336,3 +336,106 @@ fn plot_on_an_empty_or_header_only_csv_says_nothing_to_plot() {
     assert!(err_line(&o).contains("nothing to plot"), "{}", err_line(&o));
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// `reproduce --shard I/N` on every shard, then `reproduce --merge`, gives the unsharded run's
+/// rows and table; a renderer that fails in every view of a table is a "failed" row of that
+/// table with the message, listed in its notes, and the exit status is 3 — sharded or not.
+#[test]
+fn reproduce_shards_merge_to_the_unsharded_table_with_failed_rows_shown() {
+    let d = tmpdir("reproduce");
+    let run = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_tetbench"))
+            .args(["reproduce", "--quick", "--only", "ptint-fig8"])
+            .args(args)
+            .env("TETBENCH_TEST_PANIC", "raycast/partial@*")
+            .output()
+            .unwrap()
+    };
+    let (whole, s0, s1, merged) = (
+        d.join("whole"),
+        d.join("s0"),
+        d.join("s1"),
+        d.join("merged"),
+    );
+    let o = run(&["--out", s(&whole)]);
+    assert_eq!(o.status.code(), Some(3), "{}", err_line(&o));
+    for (i, dir) in [(0, &s0), (1, &s1)] {
+        let shard = format!("{i}/2");
+        let o = run(&["--shard", &shard, "--out", s(dir)]);
+        // Shard 0 or 1 measures the raycast rows (and fails them): exit 3 there only.
+        assert!(matches!(o.status.code(), Some(0 | 3)), "{}", err_line(&o));
+        assert!(
+            !dir.join("ptint-fig8.md").exists(),
+            "a shard writes raw rows, not tables"
+        );
+    }
+    let o = run(&["--merge", s(&s0), s(&s1), "--out", s(&merged)]);
+    assert_eq!(o.status.code(), Some(3), "{}", err_line(&o));
+    let raw = |dir: &Path| dir.join("raw/ptint-fig8/results.csv");
+    same_rows(&raw(&whole), &raw(&merged));
+    let table = |dir: &Path| std::fs::read_to_string(dir.join("ptint-fig8.md")).unwrap();
+    let (tw, tm) = (table(&whole), table(&merged));
+    for t in [&tw, &tm] {
+        let failed: Vec<&str> = t
+            .lines()
+            .filter(|l| l.contains("| raycast/partial |"))
+            .collect();
+        assert!(!failed.is_empty(), "no raycast row:\n{t}");
+        assert!(
+            failed
+                .iter()
+                .all(|l| l.contains("| failed: ")
+                    && l.contains("panicked: test-only renderer panic")),
+            "{failed:?}"
+        );
+        assert!(t.contains("**Failed measurements**"), "{t}");
+        assert!(
+            t.contains("raycast/partial: 6 of 6 measurements failed"),
+            "{t}"
+        );
+    }
+    // The same rows in the same order; only the measured times differ.
+    let cells = |t: &str| -> Vec<String> {
+        t.lines()
+            .filter(|l| l.starts_with("| ") && !l.starts_with("| viewport"))
+            .map(|l| l.split(" | ").take(3).collect::<Vec<_>>().join("|"))
+            .collect()
+    };
+    assert_eq!(cells(&tw), cells(&tm));
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// `reproduce --slurm N` prints an N-task array and a merge job that depends on it, as valid
+/// shell; a shard whose only trouble is failed rows (exit 3) does not stop the merge.
+#[test]
+fn reproduce_slurm_prints_an_array_and_its_merge() {
+    let o = tetbench(&[
+        "reproduce",
+        "--slurm",
+        "3",
+        "--quick",
+        "--out",
+        "/shared/out",
+    ]);
+    assert!(o.status.success(), "{}", err_line(&o));
+    let text = String::from_utf8(o.stdout).unwrap();
+    assert!(text.contains("--array=0-2"), "{text}");
+    assert!(text.contains("--shard $SLURM_ARRAY_TASK_ID/3"), "{text}");
+    assert!(text.contains("--dependency=afterok:$array"), "{text}");
+    assert!(
+        text.contains("--merge /shared/out/shard-0 /shared/out/shard-1 /shared/out/shard-2"),
+        "{text}"
+    );
+    assert_eq!(text.matches("[ $rc -eq 3 ] && rc=0").count(), 2, "{text}");
+    let mut sh = Command::new("bash")
+        .arg("-n")
+        .stdin(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    use std::io::Write;
+    sh.stdin.take().unwrap().write_all(text.as_bytes()).unwrap();
+    assert!(sh.wait().unwrap().success(), "not valid shell:\n{text}");
+    let o = tetbench(&["reproduce", "--slurm", "0"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert_eq!(err_line(&o).lines().count(), 1, "{}", err_line(&o));
+}

@@ -6,8 +6,8 @@ use algorithms::render::{self, Family};
 use algorithms::Result;
 
 use super::common::{
-    agg, base_config, common_notes, dataset, mesh_used, pt_family, ray_casters, rotating, rows_of,
-    variants, want,
+    base_config, common_notes, dataset, failed_cells, measured, mesh_used, pt_family, ray_casters,
+    rotating, sizes_of, variants, want, Measured,
 };
 use super::{Ctx, Done, PaperTable};
 use crate::bench::Outcome;
@@ -183,8 +183,9 @@ fn hapt_t1_build(ctx: &Ctx, cfg: &Config, o: &Outcome) -> Table {
             ]
         };
         let rm = |lab: Option<&String>| {
-            lab.map(|l| f(agg(&rows_of(o, p.dataset, l)).rmse, 6))
-                .unwrap_or_else(|| "not measured".into())
+            lab.map_or("not measured".into(), |l| {
+                measured(o, p.dataset, l).show(|a| f(a.rmse, 6))
+            })
         };
         let first = ps.first().or(xs.first()).expect("a pair row");
         let [pm, pa, pd] = metrics(&ps);
@@ -231,6 +232,25 @@ struct T2Row {
     dvr: Rate,
     iso: Rate,
     dvr_iso: Rate,
+}
+
+impl T2Row {
+    /// The paper's cells of this row.
+    fn head(&self) -> Vec<String> {
+        [
+            self.dataset,
+            self.vertices,
+            self.tets,
+            self.dvr.fps,
+            self.dvr.mtets_per_s,
+            self.iso.fps,
+            self.iso.mtets_per_s,
+            self.dvr_iso.fps,
+            self.dvr_iso.mtets_per_s,
+        ]
+        .map(String::from)
+        .to_vec()
+    }
 }
 
 const fn t2(
@@ -382,21 +402,25 @@ fn hapt_t2_build(ctx: &Ctx, cfg: &Config, o: &Outcome) -> Table {
     };
     for p in &HAPT_T2 {
         for v in &dvr {
-            let rs = rows_of(o, p.dataset, v);
-            if rs.is_empty() {
-                continue;
-            }
-            let a = agg(&rs);
-            let mut row: Vec<String> = vec![
-                p.dataset.into(),
-                p.vertices.into(),
-                p.tets.into(),
-                p.dvr.fps.into(),
-                p.dvr.mtets_per_s.into(),
-                p.iso.fps.into(),
-                p.iso.mtets_per_s.into(),
-                p.dvr_iso.fps.into(),
-                p.dvr_iso.mtets_per_s.into(),
+            let a = match measured(o, p.dataset, v) {
+                Measured::Ok(a) => a,
+                Measured::Failed(m) => {
+                    let (vertices, tets) = sizes_of(o, p.dataset, v);
+                    let mut row = p.head();
+                    row.extend([
+                        mesh_used(cfg, p.dataset),
+                        count(vertices),
+                        count(tets),
+                        v.to_string(),
+                    ]);
+                    row.extend(failed_cells(m, 5 + 2 * ISO_MODES.len()));
+                    t.rows.push(row);
+                    continue;
+                }
+                Measured::Missing => continue,
+            };
+            let mut row: Vec<String> = p.head();
+            row.extend([
                 mesh_used(cfg, p.dataset),
                 count(a.vertices),
                 count(a.tets),
@@ -404,11 +428,12 @@ fn hapt_t2_build(ctx: &Ctx, cfg: &Config, o: &Outcome) -> Table {
                 f(a.fps, 2),
                 f(a.tets_per_s / 1e6, 3),
                 f(a.rmse, 5),
-            ];
+            ]);
             for (_, mode) in ISO_MODES {
-                let m = with_mode(v, mode).map(|l| agg(&rows_of(o, p.dataset, &l)));
-                row.push(m.as_ref().map_or("—".into(), |m| f(m.fps, 2)));
-                row.push(m.as_ref().map_or("—".into(), |m| f(m.tets_per_s / 1e6, 3)));
+                let m =
+                    with_mode(v, mode).map_or(Measured::Missing, |l| measured(o, p.dataset, &l));
+                row.push(m.show(|m| f(m.fps, 2)));
+                row.push(m.show(|m| f(m.tets_per_s / 1e6, 3)));
             }
             row.push(f(a.cpu_b, 1));
             row.push(f(a.gpu_b, 1));

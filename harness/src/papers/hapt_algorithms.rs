@@ -5,8 +5,8 @@
 use algorithms::Result;
 
 use super::common::{
-    agg, algo_rows, base_config, common_notes, dataset, external_note, external_peers, mesh_used,
-    pt_family, ray_casters, rotating, rows_of, variants, PaperRow,
+    algo_rows, base_config, common_notes, dataset, external_note, external_peers, measured,
+    mesh_used, pt_family, ray_casters, rotating, variants, PaperRow,
 };
 use super::{Ctx, Done, PaperTable};
 use crate::bench::Outcome;
@@ -138,16 +138,16 @@ fn hapt_t3_build(ctx: &Ctx, cfg: &Config, o: &Outcome) -> Table {
         t.col(c, hw);
     }
     let m = |v: &str| {
-        let a = agg(&rows_of(o, "spx2", v));
+        let a = measured(o, "spx2", v);
         vec![
-            f(a.sort_ms / 1e3, 4),
-            f(a.draw_ms / 1e3, 4),
-            f(a.ms / 1e3, 4),
-            f(a.fps, 2),
-            f(a.tets_per_s / 1e6, 3),
-            f(a.rmse, 5),
-            f(a.cpu_b, 1),
-            f(a.gpu_b, 1),
+            a.show(|a| f(a.sort_ms / 1e3, 4)),
+            a.show(|a| f(a.draw_ms / 1e3, 4)),
+            a.show(|a| f(a.ms / 1e3, 4)),
+            a.show(|a| f(a.fps, 2)),
+            a.show(|a| f(a.tets_per_s / 1e6, 3)),
+            a.show(|a| f(a.rmse, 5)),
+            a.show(|a| f(a.cpu_b, 1)),
+            a.show(|a| f(a.gpu_b, 1)),
         ]
     };
     t.rows = algo_rows(HAPT_T3, 4, &variants(o), &m, 8);
@@ -248,17 +248,17 @@ fn hapt_t4_build(ctx: &Ctx, cfg: &Config, o: &Outcome) -> Table {
         t.col(c, hw);
     }
     let m = |v: &str| {
-        let a = agg(&rows_of(o, "torso", v));
-        let b = agg(&rows_of(o, "fighter", v));
+        let a = measured(o, "torso", v);
+        let b = measured(o, "fighter", v);
         vec![
-            f(a.fps, 2),
-            f(a.tets_per_s / 1e6, 3),
-            f(b.fps, 2),
-            f(b.tets_per_s / 1e6, 3),
-            f(a.rmse, 5),
-            f(b.rmse, 5),
-            f(b.cpu_b, 1),
-            f(b.gpu_b, 1),
+            a.show(|a| f(a.fps, 2)),
+            a.show(|a| f(a.tets_per_s / 1e6, 3)),
+            b.show(|b| f(b.fps, 2)),
+            b.show(|b| f(b.tets_per_s / 1e6, 3)),
+            a.show(|a| f(a.rmse, 5)),
+            b.show(|b| f(b.rmse, 5)),
+            b.show(|b| f(b.cpu_b, 1)),
+            b.show(|b| f(b.gpu_b, 1)),
         ]
     };
     t.rows = algo_rows(HAPT_T4, 4, &variants(o), &m, 8);

@@ -59,6 +59,8 @@ pub struct Ctx {
     pub out: PathBuf,
     /// Whole, one shard of each experiment table, or the merge of shard directories.
     pub sweep: Sweep,
+    /// Failed measurements in the tables run so far (`reproduce` exits 3 when there are any).
+    pub failed: std::sync::atomic::AtomicUsize,
 }
 
 /// How `reproduce` runs the experiment tables.
@@ -75,6 +77,13 @@ pub enum Sweep {
 }
 
 impl Ctx {
+    /// Adds the failed rows among `rows` to [`Ctx::failed`].
+    pub fn count_failed(&self, rows: &[crate::rows::Row]) {
+        let n = rows.iter().filter(|r| crate::sweep::failed(r)).count();
+        self.failed
+            .fetch_add(n, std::sync::atomic::Ordering::SeqCst);
+    }
+
     /// A table that is not an experiment skips a shard run (the merge runs it).
     pub fn skip_unsharded(&self) -> Option<Done> {
         matches!(self.sweep, Sweep::Shard(_))

@@ -4,8 +4,9 @@
 use algorithms::Result;
 
 use super::common::{
-    agg, algo_rows, base_config, common_notes, dataset, external_note, external_peers, mesh_used,
-    pt_family, ray_casters, rotating, rows_of, variants, PaperRow,
+    agg, algo_rows, base_config, common_notes, dataset, external_note, external_peers,
+    failed_cells, failure, measured, mesh_used, pt_family, ray_casters, rotating, sizes_of,
+    variants, Measured, PaperRow,
 };
 use super::{Ctx, Done, PaperTable};
 use crate::bench::Outcome;
@@ -125,21 +126,31 @@ fn ptint_t1_build(ctx: &Ctx, cfg: &Config, o: &Outcome) -> Table {
     }
     for p in &PTINT_T1 {
         for v in variants(o) {
-            let rs = rows_of(o, p.dataset, &v);
-            if rs.is_empty() {
-                continue;
-            }
-            let a = agg(&rs);
-            t.rows.push(vec![
-                p.dataset.into(),
-                p.vertices.into(),
-                p.tets.into(),
-                p.fps.into(),
-                p.ktets_per_s.into(),
-                mesh_used(cfg, p.dataset),
-                count(a.vertices),
-                count(a.tets),
-                v.clone(),
+            let head = |(vertices, tets): (usize, usize)| -> Vec<String> {
+                vec![
+                    p.dataset.into(),
+                    p.vertices.into(),
+                    p.tets.into(),
+                    p.fps.into(),
+                    p.ktets_per_s.into(),
+                    mesh_used(cfg, p.dataset),
+                    count(vertices),
+                    count(tets),
+                    v.clone(),
+                ]
+            };
+            let a = match measured(o, p.dataset, &v) {
+                Measured::Ok(a) => a,
+                Measured::Failed(m) => {
+                    let mut row = head(sizes_of(o, p.dataset, &v));
+                    row.extend(failed_cells(m, 6));
+                    t.rows.push(row);
+                    continue;
+                }
+                Measured::Missing => continue,
+            };
+            let mut row = head((a.vertices, a.tets));
+            row.extend([
                 f(a.fps, 2),
                 f(a.tets_per_s / 1e3, 1),
                 f(a.rmse, 5),
@@ -147,6 +158,7 @@ fn ptint_t1_build(ctx: &Ctx, cfg: &Config, o: &Outcome) -> Table {
                 f(a.gpu_b, 1),
                 f(a.setup_ms, 0),
             ]);
+            t.rows.push(row);
         }
     }
     t.notes = common_notes(ctx, cfg);
@@ -215,17 +227,17 @@ fn ptint_t2_build(ctx: &Ctx, cfg: &Config, o: &Outcome) -> Table {
         t.col(c, hw);
     }
     let m = |v: &str| {
-        let b = agg(&rows_of(o, "blunt", v));
-        let p = agg(&rows_of(o, "post", v));
+        let b = measured(o, "blunt", v);
+        let p = measured(o, "post", v);
         vec![
-            f(b.fps, 2),
-            f(p.fps, 2),
-            f(b.tets_per_s / 1e3, 1),
-            f(p.tets_per_s / 1e3, 1),
-            f(b.rmse, 5),
-            f(p.rmse, 5),
-            f(p.cpu_b, 1),
-            f(p.gpu_b, 1),
+            b.show(|b| f(b.fps, 2)),
+            p.show(|p| f(p.fps, 2)),
+            b.show(|b| f(b.tets_per_s / 1e3, 1)),
+            p.show(|p| f(p.tets_per_s / 1e3, 1)),
+            b.show(|b| f(b.rmse, 5)),
+            p.show(|p| f(p.rmse, 5)),
+            p.show(|p| f(p.cpu_b, 1)),
+            p.show(|p| f(p.gpu_b, 1)),
         ]
     };
     t.rows = algo_rows(PTINT_T2, 2, &variants(o), &m, 8);
@@ -289,11 +301,7 @@ fn ptint_fig8_build(ctx: &Ctx, cfg: &Config, o: &Outcome) -> Table {
                     r.variant == v && r.width == w && r.height == h && r.total_ms.is_finite()
                 })
                 .collect();
-            if rs.is_empty() {
-                continue;
-            }
-            let a = agg(&rs);
-            t.rows.push(vec![
+            let mut row = vec![
                 format!("{w}x{h}"),
                 if (w, h) == (512, 512) {
                     "2384.4 (Table 1)".into()
@@ -301,11 +309,23 @@ fn ptint_fig8_build(ctx: &Ctx, cfg: &Config, o: &Outcome) -> Table {
                     "—".into()
                 },
                 v.clone(),
-                f(a.ms, 2),
-                f(a.fps, 2),
-                f(a.tets_per_s / 1e3, 1),
-                f(a.rmse, 5),
-            ]);
+            ];
+            if rs.is_empty() {
+                let Some(m) = failure(o, |r| r.variant == v && r.width == w && r.height == h)
+                else {
+                    continue;
+                };
+                row.extend(failed_cells(m, 4));
+            } else {
+                let a = agg(&rs);
+                row.extend([
+                    f(a.ms, 2),
+                    f(a.fps, 2),
+                    f(a.tets_per_s / 1e3, 1),
+                    f(a.rmse, 5),
+                ]);
+            }
+            t.rows.push(row);
         }
     }
     t.notes = common_notes(ctx, cfg);

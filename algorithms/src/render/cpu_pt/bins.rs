@@ -3,7 +3,7 @@
 
 use rayon::prelude::*;
 
-use super::TileRect;
+use super::project::TileRect;
 
 /// The tets of every tile in visibility order, in one array (a counting sort of the
 /// (tet, tile) pairs by tile, stable in the order): tile k's tets are

@@ -1,7 +1,7 @@
 //! The fast path of `cpu-pt`'s draw stage: orthographic views with an f32 integrator
 //! ([`FastIntegrator`]: `average`, `partial`, `preint`), which is what the speed tables run.
 //!
-//! What makes it fast, against the general path in `cpu_pt.rs` (which stays the definition for
+//! What makes it fast, against the general path in `general.rs` (which stays the definition for
 //! perspective and the f64 integrators, and which `cpu_pt`'s tests compare this one with):
 //! - **one record per tet, one cache line** ([`FastRec`], 64 B): the snapped vertices, their
 //!   transfer-function coordinates and the thick vertex's `s_f`, `s_b`, `l`, written by the

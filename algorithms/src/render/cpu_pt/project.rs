@@ -1,0 +1,111 @@
+//! `cpu-pt`'s project stage: every vertex to snapped pixel coordinates and depth, every tet
+//! classified by the ternary truth table of [`crate::pt`] and given its tile range; for the fast
+//! path, the tet's [`FastRec`] written in mesh order.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::fast::FastRec;
+use super::{Prepared, Scratch, TILE};
+use crate::camera::{Camera, Projection};
+use crate::mesh::Mesh;
+use crate::pt::{classify, snap, FanGeometry, ProjVertex, Thick, TABLE};
+
+/// A projected vertex: snapped pixel coordinates and depth along the view axis.
+#[derive(Clone, Copy, Default)]
+pub(super) struct VertProj {
+    pub(super) q: [i32; 2],
+    pub(super) z: f64,
+}
+
+/// A classified tet (general path).
+#[derive(Clone, Copy, Default)]
+pub(super) struct TetProj {
+    pub(super) thick: Thick,
+}
+
+/// The tile range of a tet, inclusive (empty, `[1, 1, 0, 0]`, when not drawn).
+pub(super) type TileRect = [u16; 4];
+pub(super) const NO_TILES: TileRect = [1, 1, 0, 0];
+
+/// Projects and classifies `mesh` for `camera` into `sc` (`verts`, `rects`, and `fast` when
+/// `fast`, else `tets`).
+pub(super) fn project(st: &Prepared, mesh: &Mesh, camera: &Camera, fast: bool, sc: &mut Scratch) {
+    let (w, h) = (camera.width, camera.height);
+    let persp = camera.projection == Projection::Persp;
+    st.pos
+        .par_iter()
+        .map(|p| {
+            let (x, y, z) = camera.project(DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64));
+            VertProj {
+                q: [snap(x) as i32, snap(y) as i32],
+                z,
+            }
+        })
+        .collect_into_vec(&mut sc.verts);
+    let verts = &sc.verts;
+    let classify_tet = |t: &[u32; 4]| {
+        let v: [ProjVertex; 4] = std::array::from_fn(|k| {
+            let i = t[k] as usize;
+            let p = st.pos[i];
+            ProjVertex {
+                q: [verts[i].q[0] as i64, verts[i].q[1] as i64],
+                z: verts[i].z,
+                p: DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64),
+                s: st.s[i] as f64,
+            }
+        });
+        let thick = classify(&v, persp, st.inv_l);
+        let mut tiles = NO_TILES;
+        if TABLE[thick.case as usize].drawn() {
+            let g = FanGeometry::new(v.map(|v| v.q), &thick);
+            let b = g.pixel_bounds();
+            let (i0, j0) = (b[0].max(0), b[1].max(0));
+            let (i1, j1) = (b[2].min(w as i64 - 1), b[3].min(h as i64 - 1));
+            if i0 <= i1 && j0 <= j1 {
+                let t = TILE as i64;
+                tiles = [
+                    (i0 / t) as u16,
+                    (j0 / t) as u16,
+                    (i1 / t) as u16,
+                    (j1 / t) as u16,
+                ];
+            }
+        }
+        (thick, tiles)
+    };
+    if fast {
+        sc.tets = Vec::new();
+        sc.fast.resize(mesh.num_tets(), FastRec::default());
+        sc.rects.resize(mesh.num_tets(), NO_TILES);
+        let (fr, rects) = (&mut sc.fast, &mut sc.rects);
+        mesh.tets()
+            .par_iter()
+            .zip(fr.par_iter_mut().zip(rects.par_iter_mut()))
+            .for_each(|(t, (f, r))| {
+                let (th, tiles) = classify_tet(t);
+                *r = tiles;
+                *f = FastRec {
+                    q: t.map(|v| verts[v as usize].q),
+                    s: t.map(|v| st.s[v as usize]),
+                    sf: th.sf as f32,
+                    sb: th.sb as f32,
+                    l: th.l as f32,
+                    case: th.case,
+                };
+            });
+    } else {
+        sc.fast = Vec::new();
+        sc.tets.resize(mesh.num_tets(), TetProj::default());
+        sc.rects.resize(mesh.num_tets(), NO_TILES);
+        let (tp, rects) = (&mut sc.tets, &mut sc.rects);
+        mesh.tets()
+            .par_iter()
+            .zip(tp.par_iter_mut().zip(rects.par_iter_mut()))
+            .for_each(|(t, (p, r))| {
+                let (thick, tiles) = classify_tet(t);
+                *r = tiles;
+                *p = TetProj { thick };
+            });
+    }
+}

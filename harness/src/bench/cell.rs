@@ -1,0 +1,224 @@
+//! One cell of a sweep (a projection, a size and a view: [`Cell`]), a variant made and prepared
+//! on one mesh ([`Prepared`]), and one measurement of it ([`measure_cell`]), isolated so that a
+//! panicking renderer costs one failed row, not the sweep.
+
+use std::path::Path;
+use std::time::Instant;
+
+use algorithms::camera::{Camera, Projection};
+use algorithms::image::Image;
+use algorithms::render::{self, Renderer};
+use algorithms::{alloc, metrics, Error, Mesh, Result, TransferFunction};
+
+use crate::experiment::{Experiment, Variant, ViewItem};
+use crate::measure::{self, Frames};
+use crate::rows::Row;
+
+/// One cell of the sweep: a projection, an image size and a view.
+#[derive(Debug, Clone)]
+pub struct Cell<'a> {
+    pub projection: Projection,
+    pub size: (u32, u32),
+    pub view: &'a ViewItem,
+}
+
+/// Every cell of an experiment, in the order they run (projection, size, view).
+pub fn cells(exp: &Experiment) -> Vec<Cell<'_>> {
+    let mut v = Vec::new();
+    for &projection in &exp.projections {
+        for &size in &exp.sizes {
+            for view in &exp.views {
+                v.push(Cell {
+                    projection,
+                    size,
+                    view,
+                });
+            }
+        }
+    }
+    v
+}
+
+/// One variant made and prepared for one mesh, with the row fields every cell shares.
+pub struct Prepared {
+    renderer: Box<dyn Renderer>,
+    /// The mesh as the renderer saw it (a fresh clone: derived data it needs is counted).
+    mesh: Mesh,
+    /// `prepare`'s error, reported in every row of the variant.
+    failed: Option<String>,
+    base: Row,
+}
+
+impl Prepared {
+    /// Makes the variant's renderer and prepares it, timing setup and counting its heap bytes.
+    pub fn new(exp: &Experiment, var: &Variant, dataset: &str, mesh: &Mesh) -> Result<Self> {
+        let mut renderer = render::make(&var.renderer, &var.options)?;
+        let fresh = mesh.clone();
+        let t0 = Instant::now();
+        let (prep, bytes, peak) = alloc::measure(|| isolated(|| renderer.prepare(&fresh, &exp.tf)));
+        let setup_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let tets = mesh.num_tets() as f64;
+        let per_tet = |b: isize| {
+            if alloc::is_counting() {
+                b as f64 / tets
+            } else {
+                f64::NAN
+            }
+        };
+        let base = Row {
+            dataset: dataset.to_string(),
+            tets: mesh.num_tets(),
+            vertices: mesh.num_vertices(),
+            renderer: var.renderer.clone(),
+            sort: var.sort.clone(),
+            integrator: var.integrator.clone(),
+            variant: var.label.clone(),
+            tf: exp.tf_name.clone(),
+            repeats: exp.repeats,
+            warmup: exp.warmup,
+            threads: rayon::current_num_threads(),
+            device: renderer.device(),
+            setup_ms,
+            cpu_bytes_per_tet: per_tet(bytes),
+            cpu_peak_bytes_per_tet: per_tet(peak),
+            gpu_bytes_per_tet: renderer.gpu_bytes() as f64 / tets,
+            ..Default::default()
+        };
+        Ok(Prepared {
+            renderer,
+            mesh: fresh,
+            failed: prep.err().map(|e| format!("prepare: {e}")),
+            base,
+        })
+    }
+}
+
+/// Test-only: `TETBENCH_TEST_PANIC=VARIANT@VIEW_ID` makes the renderer of that one cell panic
+/// inside `render`, to prove that a panicking renderer costs one failed row, not the sweep
+/// (comma-separated cells; `VARIANT@*` for all of a variant's views). Not for users; it is set
+/// only by the harness's tests.
+pub const TEST_PANIC_ENV: &str = "TETBENCH_TEST_PANIC";
+
+/// A renderer that panics when it renders (see [`TEST_PANIC_ENV`]).
+struct TestPanic<'a>(&'a mut dyn Renderer);
+
+impl Renderer for TestPanic<'_> {
+    fn name(&self) -> String {
+        self.0.name()
+    }
+    fn integrator_name(&self) -> String {
+        self.0.integrator_name()
+    }
+    fn prepare(&mut self, mesh: &Mesh, tf: &TransferFunction) -> Result<()> {
+        self.0.prepare(mesh, tf)
+    }
+    fn render(&mut self, _: &Mesh, _: &Camera) -> Result<algorithms::render::Frame> {
+        panic!("test-only renderer panic ({TEST_PANIC_ENV})")
+    }
+}
+
+/// Runs `f`, turning a panic inside it (a renderer's bug, a GPU device lost that wgpu reports
+/// by panicking) into an error carrying the panic's message, so one measurement fails alone.
+pub fn isolated<T>(f: impl FnOnce() -> Result<T>) -> Result<T> {
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)) {
+        Ok(r) => r,
+        Err(p) => {
+            let msg = p
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| p.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "unknown panic".to_string());
+            Err(Error::Internal(format!("panicked: {msg}")))
+        }
+    }
+}
+
+/// Measures one cell: the row (a failed frame is a row with NaN times and the error as its
+/// note) and, when the frames ran, the last image. With `reference`, the error against it.
+pub fn measure_cell(
+    exp: &Experiment,
+    p: &mut Prepared,
+    cell: &Cell,
+    reference: Option<&Path>,
+) -> Result<(Row, Option<Image>)> {
+    let (w, h) = cell.size;
+    let mut row = p.base.clone();
+    row.width = w;
+    row.height = h;
+    row.view_id = cell.view.id.clone();
+    row.azimuth = cell.view.view.azimuth;
+    row.elevation = cell.view.view.elevation;
+    row.projection = cell.projection.name().to_string();
+    let result = match &p.failed {
+        Some(e) => Err(Error::Input(e.clone())),
+        None => {
+            let cam = Camera::new(&p.mesh.bbox(), cell.view.view, cell.projection, w, h);
+            let frames = Frames {
+                warmup: exp.warmup,
+                repeats: exp.repeats,
+            };
+            let label = format!("{}@{}", p.base.variant, cell.view.id);
+            let renderer = p.renderer.as_mut();
+            let mesh = &p.mesh;
+            isolated(|| {
+                if std::env::var(TEST_PANIC_ENV).is_ok_and(|v| {
+                    v.split(',').any(|c| {
+                        c == label || c.strip_suffix("@*") == Some(p.base.variant.as_str())
+                    })
+                }) {
+                    let mut r = TestPanic(renderer);
+                    return measure::measure(&mut r, mesh, &cam, frames);
+                }
+                measure::measure(renderer, mesh, &cam, frames)
+            })
+        }
+    };
+    let m = match result {
+        Ok(m) => m,
+        Err(e) => {
+            for t in [
+                &mut row.project_ms,
+                &mut row.sort_ms,
+                &mut row.draw_ms,
+                &mut row.readback_ms,
+                &mut row.total_ms,
+                &mut row.total_min_ms,
+                &mut row.fps,
+                &mut row.tets_per_s,
+            ] {
+                *t = f64::NAN;
+            }
+            row.note = e.to_string().replace(['\n', '\r'], " ");
+            return Ok((row, None));
+        }
+    };
+    let t = m.times;
+    row.project_ms = t.project_ms;
+    row.sort_ms = t.sort_ms;
+    row.draw_ms = t.draw_ms;
+    row.readback_ms = t.readback_ms;
+    row.total_ms = t.total_ms;
+    row.total_min_ms = m.total_min_ms;
+    row.fps = 1e3 / t.total_ms.max(1e-9);
+    row.tets_per_s = row.tets as f64 / (t.total_ms.max(1e-9) * 1e-3);
+    row.non_finite_pixels = m.image.non_finite_pixels();
+    // An external renderer's bytes are its helper process's peak RSS, known after the frames.
+    if let Some(b) = p.renderer.external_bytes() {
+        row.cpu_bytes_per_tet = b as f64 / row.tets.max(1) as f64;
+        row.cpu_peak_bytes_per_tet = row.cpu_bytes_per_tet;
+    }
+    if let Some(rp) = reference {
+        match metrics::compare(&m.image, &Image::read(rp)?) {
+            Ok(e) => {
+                row.rmse = Some(e.rmse);
+                row.psnr = Some(e.psnr);
+                row.max_abs = Some(e.max_abs);
+                row.diff_pixels_pct = Some(e.diff_pixels_pct);
+                row.max_err_pct = Some(e.max_err_pct);
+                row.avg_err_pct = Some(e.avg_err_pct);
+            }
+            Err(e) => row.note = format!("compare: {e}"),
+        }
+    }
+    Ok((row, Some(m.image)))
+}

@@ -31,8 +31,10 @@
 //! the point of B's hull (a vertex, an edge point or a face point), which gives `s_f`, `s_b` and
 //! the thickness `l` (Shirley & Tuchman 1990; PTINT §2).
 
+mod faces;
 mod raster;
 
+pub use faces::{fan_segment, FaceSegment, FaceVertex};
 pub use raster::{raster_fan, raster_fan_rows, FanGeometry, Fragment, Row};
 
 use glam::DVec3;

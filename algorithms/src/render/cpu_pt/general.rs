@@ -1,6 +1,7 @@
 //! `cpu-pt`'s general draw path: perspective, and the f64 integrators behind `dyn Integrator`
 //! (`exact` always). It is the definition the fast path (`fast.rs`) is tested against.
 
+use glam::DVec3;
 use rayon::prelude::*;
 
 use super::bins::Bins;
@@ -9,7 +10,7 @@ use super::TILE;
 use crate::camera::Camera;
 use crate::optics::Integrator;
 use crate::optics_f32::FastIntegrator;
-use crate::pt::{raster_fan, FanGeometry};
+use crate::pt::{fan_segment, raster_fan, FaceVertex, FanGeometry};
 
 /// Per-fragment integration: premultiplied `[r, g, b, α]` of a segment.
 pub(super) trait Shade: Sync {
@@ -54,6 +55,8 @@ pub(super) fn draw_tiles<S: Shade>(
 
 pub(super) struct DrawCtx<'a, S> {
     pub(super) tets: &'a [[u32; 4]],
+    /// Centred positions, for the unsnapped projection of [`fan_segment`].
+    pub(super) pos: &'a [[f32; 3]],
     pub(super) verts: &'a [VertProj],
     pub(super) rec: &'a [TetProj],
     pub(super) s: &'a [f32],
@@ -142,16 +145,39 @@ impl<S: Shade> DrawCtx<'_, S> {
                 }
             }
         }
+        // The unsnapped projection: the segment comes from the two faces over each fan
+        // triangle there (crate::pt::faces), the snapped interpolation is the fallback for a
+        // centre outside a true face or a face edge-on in f64.
+        let fv: [FaceVertex; 4] = std::array::from_fn(|k| {
+            let v = tet[k] as usize;
+            let p = self.pos[v];
+            let (x, y, z) = self
+                .camera
+                .project(DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64));
+            FaceVertex {
+                x,
+                y,
+                z,
+                s: self.s[v] as f64,
+            }
+        });
         raster_fan(&g, clip, |f| {
-            let [dx, dy] = &diff[f.tri];
-            let a = |c: usize| attr[4][c] + f.lx * dx[c] + f.ly * dy[c];
             let k = ((f.j - clip[1]) * ts + (f.i - clip[0])) as usize;
-            let (sf, sb, l) = if self.persp {
-                let (qf, qb) = (a(0), a(1));
-                let l = a(2) / (qf * qb) * sec[k] * self.inv_l;
-                (a(3) / qf, a(4) / qb, l)
+            let centre = [f.i as f64 + 0.5, f.j as f64 + 0.5];
+            let (sf, sb, l) = if let Some(seg) = fan_segment(&fv, case, f.tri, centre, self.persp)
+            {
+                let sec = if self.persp { sec[k] } else { 1.0 };
+                (seg.sf, seg.sb, (seg.zb - seg.zf) * sec * self.inv_l)
             } else {
-                (a(0), a(1), a(2))
+                let [dx, dy] = &diff[f.tri];
+                let a = |c: usize| attr[4][c] + f.lx * dx[c] + f.ly * dy[c];
+                if self.persp {
+                    let (qf, qb) = (a(0), a(1));
+                    let l = a(2) / (qf * qb) * sec[k] * self.inv_l;
+                    (a(3) / qf, a(4) / qb, l)
+                } else {
+                    (a(0), a(1), a(2))
+                }
             };
             n += 1;
             if l <= 0.0 {

@@ -44,6 +44,7 @@ macro_rules! table {
     };
 }
 
+pub mod aggregate;
 pub mod bcc;
 pub mod common;
 pub mod hapt;

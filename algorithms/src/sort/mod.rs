@@ -293,6 +293,35 @@ pub fn face_violations(mesh: &Mesh, cam: &Camera, order: &[u32], tol: f64) -> us
 #[cfg(test)]
 mod tests;
 
+/// Where emitting a visibility graph in topological order stalls (the cells left lie on
+/// cycles or behind them), MPVONC's and XMPVO's rule: the cells left, farthest first by the
+/// sort key, are forced one at a time, each time the first one still waiting.
+pub(crate) struct Stall {
+    left: Vec<u32>,
+    cursor: usize,
+}
+
+impl Stall {
+    /// The cells left at the first stall, with their keys.
+    pub(crate) fn new(left: impl Iterator<Item = (u32, f32)>) -> Stall {
+        let mut v = Vec::new();
+        sort_desc_by_key(left, &mut v);
+        Stall { left: v, cursor: 0 }
+    }
+
+    /// The next cell to force: the farthest one `waiting` still accepts (neither emitted nor
+    /// forced); `None` when there is none.
+    pub(crate) fn next(&mut self, waiting: impl Fn(u32) -> bool) -> Option<u32> {
+        while let Some(&t) = self.left.get(self.cursor) {
+            if waiting(t) {
+                return Some(t);
+            }
+            self.cursor += 1;
+        }
+        None
+    }
+}
+
 /// Strongly connected components of two or more cells in a visibility graph of `n` cells,
 /// searched from the cells `is_root` accepts (those with a non-zero in-degree); returns
 /// (components, cells in them). Iterative Tarjan. `next(v, k)` gives v's successor number `k`

@@ -48,7 +48,9 @@
 //! [`SortStats::forced`]) and the topological sort goes on from it. Every cell is still emitted
 //! exactly once.
 
-use super::{centroids, check_prepared, f32x3, sort_desc_by_key, KeyFn, Sort, SortInfo, SortStats};
+use super::{
+    centroids, check_prepared, f32x3, sort_desc_by_key, KeyFn, Sort, SortInfo, SortStats, Stall,
+};
 use glam::DVec3;
 use crate::camera::{Camera, Projection};
 use crate::error::{Error, Result};
@@ -220,7 +222,7 @@ impl Sort for Mpvonc {
         order.reserve(nt);
         self.stack.clear();
         let mut next_source = 0;
-        let mut fallback: Option<(Vec<u32>, usize)> = None;
+        let mut fallback: Option<Stall> = None;
         loop {
             while let Some(t) = self.stack.pop() {
                 order.push(t);
@@ -244,7 +246,7 @@ impl Sort for Mpvonc {
                 break;
             }
             // A stall: the remaining cells lie on cycles or downstream of them.
-            let (list, cursor) = fallback.get_or_insert_with(|| {
+            let stall = fallback.get_or_insert_with(|| {
                 let (cycles, cells) = {
                     let out = &self.out;
                     super::count_cycles(self.indeg.len(), |v| self.indeg[v] != 0, |v, f| {
@@ -261,25 +263,19 @@ impl Sort for Mpvonc {
                 };
                 stats.cycles = cycles;
                 stats.cells_in_cycles = cells;
-                let mut list = Vec::new();
-                sort_desc_by_key(
+                Stall::new(
                     self.indeg
                         .iter()
                         .enumerate()
                         .filter(|(_, &d)| d != 0)
                         .map(|(t, _)| (t as u32, kf.key(&cents[t]))),
-                    &mut list,
-                );
-                (list, 0)
+                )
             });
-            while *cursor < list.len() {
-                let d = self.indeg[list[*cursor] as usize];
-                if d != 0 && d < FORCED {
-                    break;
-                }
-                *cursor += 1;
-            }
-            let Some(&t) = list.get(*cursor) else {
+            let indeg = &self.indeg;
+            let Some(t) = stall.next(|t| {
+                let d = indeg[t as usize];
+                d != 0 && d < FORCED
+            }) else {
                 return Err(Error::Internal(format!(
                     "mpvonc emitted {} of {nt} tets",
                     order.len()

@@ -55,7 +55,7 @@
 mod exterior;
 
 use super::{
-    centroids, check_prepared, f32x3, sort_desc_by_key, KeyFn, Sort, SortInfo, SortStats,
+    centroids, check_prepared, f32x3, sort_desc_by_key, KeyFn, Sort, SortInfo, SortStats, Stall,
 };
 use crate::camera::{Camera, Projection};
 use crate::error::{Error, Result};
@@ -218,7 +218,7 @@ impl Sort for Xmpvo {
         order.reserve(nt);
         self.stack.clear();
         let mut next_source = 0;
-        let mut fallback: Option<(Vec<u32>, usize)> = None;
+        let mut fallback: Option<Stall> = None;
         loop {
             while let Some(t) = self.stack.pop() {
                 order.push(t);
@@ -250,7 +250,7 @@ impl Sort for Xmpvo {
                 break;
             }
             // A stall: the remaining cells lie on cycles or downstream of them.
-            let (list, cursor) = fallback.get_or_insert_with(|| {
+            let stall = fallback.get_or_insert_with(|| {
                 let g = Graph {
                     adj,
                     out: &self.out,
@@ -262,25 +262,19 @@ impl Sort for Xmpvo {
                 });
                 stats.cycles = cycles;
                 stats.cells_in_cycles = cells;
-                let mut list = Vec::new();
-                sort_desc_by_key(
+                Stall::new(
                     self.indeg
                         .iter()
                         .enumerate()
                         .filter(|(_, &d)| d != 0)
                         .map(|(t, _)| (t as u32, kf.key(&cents[t]))),
-                    &mut list,
-                );
-                (list, 0)
+                )
             });
-            while *cursor < list.len() {
-                let d = self.indeg[list[*cursor] as usize];
-                if d != 0 && d < FORCED {
-                    break;
-                }
-                *cursor += 1;
-            }
-            let Some(&t) = list.get(*cursor) else {
+            let indeg = &self.indeg;
+            let Some(t) = stall.next(|t| {
+                let d = indeg[t as usize];
+                d != 0 && d < FORCED
+            }) else {
                 return Err(Error::Internal(format!(
                     "xmpvo emitted {} of {nt} tets",
                     order.len()

@@ -167,14 +167,41 @@ fn write_readme(
         let status = std::fs::read_to_string(status_path(out, t.id()))
             .map(|s| s.trim().to_string())
             .unwrap_or_else(|_| "not run yet".into());
+        // A `|` in a cell (even inside a code span) would split it: escape it.
+        let cell = |s: &str| s.replace('|', "\\|");
         let _ = writeln!(
             readme,
-            "| {} | **{}.** {} | {status} |",
+            "| {} | **{}.** {} | {} |",
             t.id(),
-            t.title(),
-            t.about()
+            cell(t.title()),
+            cell(t.about()),
+            cell(&status)
         );
     }
     let rp = out.join("README.md");
     std::fs::write(&rp, readme).map_err(|e| Error::io(&rp, e))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A `|` in a table's status line (a file pattern, say) stays inside its README cell.
+    #[test]
+    fn readme_cells_escape_pipes() {
+        let out = std::env::temp_dir().join(format!("tetbench-readme-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&out);
+        let id = papers::TABLES[0].id();
+        write_status(&out, id, "plots `x.png|svg`").unwrap();
+        write_readme(&out, true, &[], "m", "d", 1.0).unwrap();
+        let readme = std::fs::read_to_string(out.join("README.md")).unwrap();
+        let row = readme
+            .lines()
+            .find(|l| l.starts_with(&format!("| {id} |")))
+            .unwrap();
+        assert!(row.ends_with("| plots `x.png\\|svg` |"), "{row}");
+        // Cells split only at unescaped pipes: id, title and about, status.
+        assert_eq!(row.replace("\\|", "").matches('|').count(), 4, "{row}");
+        let _ = std::fs::remove_dir_all(&out);
+    }
 }

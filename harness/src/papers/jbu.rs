@@ -28,7 +28,7 @@ impl PaperTable for Figures {
         let plan = crate::jbu::Plan::new(ctx.quick);
         crate::jbu::run(&plan, &ctx.out)?;
         Ok(Done::Files(format!(
-            "[{0}.md]({0}.md), [{0}.csv]({0}.csv) and the `{0}_time_*.png|svg` (Fig. 3/4), `{0}_rmse_*.png|svg` (Fig. 5) plots",
+            "[{0}.md]({0}.md), [{0}.csv]({0}.csv) and the `{0}_time_*` (Fig. 3/4) and `{0}_rmse_*` (Fig. 5) plots, PNG and SVG",
             self.id()
         )))
     }

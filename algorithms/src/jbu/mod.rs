@@ -130,7 +130,7 @@ pub const PARAMS: &[ParamInfo] = &[
     },
     ParamInfo {
         name: "c",
-        default: "0.03",
+        default: "0.1",
         doc: "colour-consistency sigma on premultiplied RGBA at depth edges (bilateral)",
     },
     ParamInfo {

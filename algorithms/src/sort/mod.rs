@@ -295,30 +295,58 @@ mod tests;
 
 /// Where emitting a visibility graph in topological order stalls (the cells left lie on
 /// cycles or behind them), MPVONC's and XMPVO's rule: the cells left, farthest first by the
-/// sort key, are forced one at a time, each time the first one still waiting.
+/// sort key, are forced one at a time, each time the first one still waiting. `indeg` is the
+/// sort's in-degree per cell, with the `forced` bit set on cells already forced.
 pub(crate) struct Stall {
     left: Vec<u32>,
     cursor: usize,
 }
 
 impl Stall {
-    /// The cells left at the first stall, with their keys.
-    pub(crate) fn new(left: impl Iterator<Item = (u32, f32)>) -> Stall {
+    /// At the first stall: the cells left (non-zero in-degree) with their keys.
+    pub(crate) fn new<D: Copy + Default + PartialEq>(
+        indeg: &[D],
+        key: impl Fn(usize) -> f32,
+    ) -> Stall {
         let mut v = Vec::new();
-        sort_desc_by_key(left, &mut v);
+        sort_desc_by_key(
+            indeg
+                .iter()
+                .enumerate()
+                .filter(|(_, &d)| d != D::default())
+                .map(|(t, _)| (t as u32, key(t))),
+            &mut v,
+        );
         Stall { left: v, cursor: 0 }
     }
 
-    /// The next cell to force: the farthest one `waiting` still accepts (neither emitted nor
-    /// forced); `None` when there is none.
-    pub(crate) fn next(&mut self, waiting: impl Fn(u32) -> bool) -> Option<u32> {
+    /// Forces the farthest cell still waiting (neither emitted nor forced): marks it, counts it
+    /// in `stats.forced` and returns it. An error naming `sort` when none is left (a bug: the
+    /// emission had stalled with every cell out).
+    pub(crate) fn force<D>(
+        &mut self,
+        indeg: &mut [D],
+        forced: D,
+        stats: &mut SortStats,
+        sort: &str,
+        emitted: usize,
+    ) -> Result<u32>
+    where
+        D: Copy + Default + PartialOrd + std::ops::BitOrAssign,
+    {
         while let Some(&t) = self.left.get(self.cursor) {
-            if waiting(t) {
-                return Some(t);
+            let d = &mut indeg[t as usize];
+            if *d != D::default() && *d < forced {
+                *d |= forced;
+                stats.forced += 1;
+                return Ok(t);
             }
             self.cursor += 1;
         }
-        None
+        Err(Error::Internal(format!(
+            "{sort} emitted {emitted} of {} tets",
+            indeg.len()
+        )))
     }
 }
 

@@ -263,26 +263,9 @@ impl Sort for Mpvonc {
                 };
                 stats.cycles = cycles;
                 stats.cells_in_cycles = cells;
-                Stall::new(
-                    self.indeg
-                        .iter()
-                        .enumerate()
-                        .filter(|(_, &d)| d != 0)
-                        .map(|(t, _)| (t as u32, kf.key(&cents[t]))),
-                )
+                Stall::new(&self.indeg, |t| kf.key(&cents[t]))
             });
-            let indeg = &self.indeg;
-            let Some(t) = stall.next(|t| {
-                let d = indeg[t as usize];
-                d != 0 && d < FORCED
-            }) else {
-                return Err(Error::Internal(format!(
-                    "mpvonc emitted {} of {nt} tets",
-                    order.len()
-                )));
-            };
-            self.indeg[t as usize] |= FORCED;
-            stats.forced += 1;
+            let t = stall.force(&mut self.indeg, FORCED, &mut stats, "mpvonc", order.len())?;
             self.stack.push(t);
         }
         Ok(stats)

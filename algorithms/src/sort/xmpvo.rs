@@ -58,7 +58,7 @@ use super::{
     centroids, check_prepared, f32x3, sort_desc_by_key, KeyFn, Sort, SortInfo, SortStats, Stall,
 };
 use crate::camera::{Camera, Projection};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::mesh::{signed_volume6, Mesh};
 use exterior::{exterior, BoundaryFace};
 
@@ -262,26 +262,9 @@ impl Sort for Xmpvo {
                 });
                 stats.cycles = cycles;
                 stats.cells_in_cycles = cells;
-                Stall::new(
-                    self.indeg
-                        .iter()
-                        .enumerate()
-                        .filter(|(_, &d)| d != 0)
-                        .map(|(t, _)| (t as u32, kf.key(&cents[t]))),
-                )
+                Stall::new(&self.indeg, |t| kf.key(&cents[t]))
             });
-            let indeg = &self.indeg;
-            let Some(t) = stall.next(|t| {
-                let d = indeg[t as usize];
-                d != 0 && d < FORCED
-            }) else {
-                return Err(Error::Internal(format!(
-                    "xmpvo emitted {} of {nt} tets",
-                    order.len()
-                )));
-            };
-            self.indeg[t as usize] |= FORCED;
-            stats.forced += 1;
+            let t = stall.force(&mut self.indeg, FORCED, &mut stats, "xmpvo", order.len())?;
             self.stack.push(t);
         }
         Ok(stats)

@@ -4,6 +4,7 @@ use glam::DVec3;
 
 use super::*;
 use crate::camera::View;
+use crate::Error;
 
 fn mesh(pos: Vec<DVec3>, tets: Vec<[u32; 4]>) -> Mesh {
     let s = vec![0.0; pos.len()];

@@ -16,8 +16,9 @@
 
 use rayon::prelude::*;
 
-use super::filter::{axis, exp_neg_in, exp_table, range_d2, slopes, Axis, Filter};
-use super::filter::{G_FLAT, W_MIN};
+use super::filter::{axis, exp_neg_in, exp_table, slopes, Axis, Filter};
+use super::filter::{bilinear4, G_FLAT, G_MATCH, W_MIN};
+use super::range::{range_d2, refine_equal};
 use crate::image::Image;
 
 /// [`super::filter::minmod`] for finite arguments, as selects instead of branches.
@@ -42,7 +43,7 @@ impl Filter<'_> {
         lh: u32,
     ) {
         let (w, h) = (self.full.width as usize, self.full.height as usize);
-        let (lw, inv2s2, inv2c2) = (self.lw, self.inv2s2, self.inv2c2);
+        let (lw, inv2s2, inv2c2, flat) = (self.lw, self.inv2s2, self.inv2c2, self.flat_d2);
         let tab = exp_table();
         let depth = &self.full.depth;
         let count = &self.full.count;
@@ -70,7 +71,7 @@ impl Filter<'_> {
                     // Sample order (y, x): (0,0), (0,1), (1,0), (1,1), as in the definition.
                     let q = [rb[0] + ca[0], rb[0] + ca[1], rb[1] + ca[0], rb[1] + ca[1]];
                     let tw = [tx[0] * ty[0], tx[1] * ty[0], tx[0] * ty[1], tx[1] * ty[1]];
-                    let np = (count[j * w + i] as usize).min(K);
+                    let np = count[j * w + i] as usize;
                     let inner = inner_row && i > 0 && i + 1 < w;
                     if np == 0 && inner && q.iter().all(|&s| cnt[s] == 0) {
                         // Background: g = 1 for every sample (module doc).
@@ -90,7 +91,14 @@ impl Filter<'_> {
                     }
                     let base = (j * w + i) * K;
                     let rp: [f32; K] = std::array::from_fn(|c| depth[base + c]);
-                    let (px, py) = if inner {
+                    let p = j * w + i;
+                    let c0 = count[p];
+                    let (px, py) = if inner
+                        && count[p - 1] == c0
+                        && count[p + 1] == c0
+                        && count[p - w] == c0
+                        && count[p + w] == c0
+                    {
                         (
                             std::array::from_fn(|c| {
                                 let v = rp[c];
@@ -105,7 +113,7 @@ impl Filter<'_> {
                             }),
                         )
                     } else {
-                        slopes::<K>(depth, i, j, w, h)
+                        slopes::<K>(depth, count, i, j, w, h)
                     };
                     // Range distances: with every count equal (the common case) the plain
                     // squared distance of eq. (4), over the four samples at once.
@@ -118,6 +126,16 @@ impl Filter<'_> {
                                 d2[m] += e * e;
                             }
                         }
+                        for m in 0..4 {
+                            if d2[m] > flat {
+                                let pred: [f32; K] = std::array::from_fn(|c| {
+                                    rp[c] + px[c] * dx[m & 1] + py[c] * dy[m >> 1]
+                                });
+                                let mut rq = [0.0f32; 4];
+                                rq[..K].copy_from_slice(&lay[q[m]]);
+                                d2[m] = refine_equal::<K>(d2[m], flat, &pred, &rp, np, &rq);
+                            }
+                        }
                     } else {
                         for m in 0..4 {
                             let s = q[m];
@@ -126,7 +144,7 @@ impl Filter<'_> {
                             });
                             let mut rq = [0.0f32; 4];
                             rq[..K].copy_from_slice(&lay[s]);
-                            d2[m] = range_d2::<K>(&pred, &rp, np, &rq, cnt[s] as usize);
+                            d2[m] = range_d2::<K>(&pred, &rp, np, &rq, cnt[s] as usize, flat);
                         }
                     }
                     let mut acc = [0.0f32; 4];
@@ -143,12 +161,22 @@ impl Filter<'_> {
                         }
                         wsum += wgt;
                     }
+                    if edge && gd.iter().all(|&g| g < G_MATCH) {
+                        *o = bilinear4(std::array::from_fn(|m| &colour[q[m]]), &tw);
+                        continue;
+                    }
                     let same = if wsum >= W_MIN {
                         acc.map(|v| v / wsum)
                     } else {
                         let pad =
                             |a: [f32; K]| std::array::from_fn(|c| if c < K { a[c] } else { 0.0 });
-                        self.window(i, j, &pad(rp), Some((pad(px), pad(py))))
+                        let range = |pred: &[f32; 4], q: usize| {
+                            let p: [f32; K] = std::array::from_fn(|c| pred[c]);
+                            let mut rq = [0.0f32; 4];
+                            rq[..K].copy_from_slice(&lay[q]);
+                            range_d2::<K>(&p, &rp, np, &rq, cnt[q] as usize, flat)
+                        };
+                        self.window(i, j, &pad(rp), Some((pad(px), pad(py))), Some(&range))
                     };
                     if !edge {
                         *o = same;

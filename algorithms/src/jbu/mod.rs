@@ -15,14 +15,18 @@
 //!     support of the linear interpolation it replaces, as the paper matches Ω to it — and g the
 //!     Gaussian of eq. (4) on the distance between the sample's layer vector `R_q` (the layers at
 //!     the low-res pixel centre) and the full-size guide at `p` extrapolated to `q` along its
-//!     per-layer slopes (minmod of the one-sided differences, so a slope never reaches across
-//!     an edge). Where the guide is planar over the four samples g = 1 and the result is
-//!     bilinear to rounding; across a depth edge the samples beyond it drop out. Crossings that
-//!     one side has and the other lacks are matched in pairs costing their own separation (a
-//!     pair is born with zero separation where a ray grazes the boundary, and the image is
-//!     continuous there). Across an edge, a sample whose colour continues the pixel's side
-//!     (within σ_c on premultiplied RGBA) is kept. If less than 1e-3 of the weight is left,
-//!     the 2r×2r window of `gauss` with the same extrapolated range term decides.
+//!     per-layer slopes (minmod of the one-sided differences to neighbours with the same number
+//!     of crossings, so a slope never reaches across an edge). Where the guide is planar over
+//!     the four samples g = 1 and the result is bilinear to rounding; across a depth edge the
+//!     samples beyond it drop out. The distance is the cheapest alignment of the two layer
+//!     lists (`range.rs`): a pair of crossings that one side has and the other lacks costs its
+//!     own separation (a pair is born with zero separation where a ray grazes the boundary, and
+//!     the image is continuous there), and crossings beyond the k kept are not charged. Across
+//!     an edge, a sample whose colour continues the pixel's side (within σ_c on premultiplied
+//!     RGBA) is kept. Where no sample matches the pixel's surface (every g < 0.9: a surface
+//!     too oblique for the samples, a feature thinner than a low-res pixel) the pixel is
+//!     bilinear; if less than 1e-3 of the weight is left, the 2r×2r window of `gauss` with the
+//!     same range term decides.
 //!   - `gauss`: the filter as first built here: a Gaussian spatial kernel of σ = Ω/2 full-res
 //!     pixels over 2r×2r samples and g on the plain distance `‖R_p − R_q‖`, weights normalised
 //!     in the log domain (a pixel whose samples all differ by many σ_r takes the best match).
@@ -47,6 +51,7 @@ use crate::plugin::ParamInfo;
 
 mod fast;
 mod filter;
+mod range;
 mod raster;
 
 pub use raster::{BoundaryRaster, DepthLayers};

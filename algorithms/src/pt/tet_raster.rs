@@ -67,14 +67,13 @@ pub struct TetRaster {
     /// of [`Fragment`]).
     pub inv_x: [f64; 4],
     pub inv_y: [f64; 4],
-    /// Silhouette edges bounding the row from below (st > 0), from above (st < 0), and the
-    /// horizontal ones (st = 0, a row is inside or not).
-    lo: [SilEdge; 4],
-    hi: [SilEdge; 4],
-    flat: [SilEdge; 4],
+    /// Silhouette edges (at most four): first those bounding the row from below (st > 0,
+    /// `nlo` of them), then from above (st < 0, `nhi`), then the horizontal ones (st = 0, a row
+    /// is inside or not), `nsil` in all.
+    sil: [SilEdge; 4],
     nlo: u8,
     nhi: u8,
-    nflat: u8,
+    nsil: u8,
 }
 
 /// One row of the silhouette: columns `i0..=i1` of row `j`, every centre of it inside the
@@ -107,6 +106,7 @@ pub fn wedge(bits: u32, valid: u32) -> u32 {
 impl TetRaster {
     /// Sets up the tet of table entry `c` with snapped vertices `q` for the inclusive pixel
     /// rectangle `clip = [i0, j0, i1, j1]`; `None` when nothing is drawn there.
+    #[inline]
     pub fn new(c: &Case, q: &[[i64; 2]; 4], clip: [i64; 4]) -> Option<TetRaster> {
         if !c.drawn() {
             return None;
@@ -140,12 +140,10 @@ impl TetRaster {
             gbias: [0; MAX_FAN],
             inv_x: [0.0; 4],
             inv_y: [0.0; 4],
-            lo: [SilEdge::default(); 4],
-            hi: [SilEdge::default(); 4],
-            flat: [SilEdge::default(); 4],
+            sil: [SilEdge::default(); 4],
             nlo: 0,
             nhi: 0,
-            nflat: 0,
+            nsil: 0,
         };
         let dir = |k: usize| dir_from_thick(c, q, c.fan[k] as usize);
         for k in 0..=n {
@@ -175,6 +173,11 @@ impl TetRaster {
             let d = dir(n);
             r.add_silhouette(Edge::new(q[c.fan[n] as usize], [-d[0], -d[1]]), p);
         }
+        // Group the silhouette edges: lower bounds, upper bounds, horizontal.
+        let key = |e: &SilEdge| (e.st <= 0) as u8 + (e.st == 0) as u8;
+        r.sil[..r.nsil as usize].sort_unstable_by_key(key);
+        r.nlo = r.sil[..r.nsil as usize].iter().filter(|e| e.st > 0).count() as u8;
+        r.nhi = r.sil[..r.nsil as usize].iter().filter(|e| e.st < 0).count() as u8;
         Some(r)
     }
 
@@ -186,27 +189,18 @@ impl TetRaster {
             sr: e.d[0] * SUBPIXEL,
             inv: if st != 0 { 1.0 / st as f64 } else { 0.0 },
         };
-        let (list, n) = if st > 0 {
-            (&mut self.lo, &mut self.nlo)
-        } else if st < 0 {
-            (&mut self.hi, &mut self.nhi)
-        } else {
-            (&mut self.flat, &mut self.nflat)
-        };
-        list[*n as usize] = s;
-        *n += 1;
+        self.sil[self.nsil as usize] = s;
+        self.nsil += 1;
     }
 
-    /// Calls `f` for each row of the silhouette with a covered centre, top to bottom.
+    /// Calls `f` for each row of the silhouette with a covered centre, top to bottom. Once:
+    /// it steps the silhouette edges in place.
     #[inline]
-    pub fn rows(&self, mut f: impl FnMut(&TetRow)) {
+    pub fn rows(&mut self, mut f: impl FnMut(&TetRow)) {
         let last = self.ib - self.ia;
-        let (mut lo, mut hi, mut flat) = (self.lo, self.hi, self.flat);
-        let (lo, hi, flat) = (
-            &mut lo[..self.nlo as usize],
-            &mut hi[..self.nhi as usize],
-            &mut flat[..self.nflat as usize],
-        );
+        let (nlo, nhi) = (self.nlo as usize, self.nhi as usize);
+        let (lo, rest) = self.sil[..self.nsil as usize].split_at_mut(nlo);
+        let (hi, flat) = rest.split_at_mut(nhi);
         let mut g = self.g;
         for j in self.j0..=self.j1 {
             let (mut a, mut b) = (0i64, last);
@@ -240,32 +234,33 @@ impl TetRaster {
                     g: std::array::from_fn(|m| g[m] + a * self.gst[m]),
                 });
             }
-            for m in 0..MAX_FAN {
-                g[m] += self.gsr[m];
+            for (v, s) in g.iter_mut().zip(&self.gsr) {
+                *v += s;
             }
         }
     }
 
     /// Calls `f` for every centre covered, as [`raster_fan`](super::raster_fan) would (the same
     /// centres, triangles and weights; the order is by rows, not by triangles).
-    pub fn fragments(&self, mut f: impl FnMut(Fragment)) {
+    pub fn fragments(mut self, mut f: impl FnMut(Fragment)) {
+        let me = self;
         self.rows(|r| {
             let mut g = r.g;
             for i in r.i0..=r.i1 {
-                let t = wedge(fan_bits(&g), self.valid);
+                let t = wedge(fan_bits(&g), me.valid);
                 if t != 0 {
                     let tri = t.trailing_zeros() as usize;
-                    let fk = |k: usize| (g[k] - self.gbias[k]) as f64;
+                    let fk = |k: usize| (g[k] - me.gbias[k]) as f64;
                     f(Fragment {
                         i,
                         j: r.j,
                         tri,
-                        lx: -fk(tri + 1) * self.inv_x[tri],
-                        ly: fk(tri) * self.inv_y[tri],
+                        lx: -fk(tri + 1) * me.inv_x[tri],
+                        ly: fk(tri) * me.inv_y[tri],
                     });
                 }
-                for m in 0..MAX_FAN {
-                    g[m] += self.gst[m];
+                for (v, s) in g.iter_mut().zip(&me.gst) {
+                    *v += s;
                 }
             }
         });

@@ -66,7 +66,7 @@ pub(super) fn draw_tile(
         let r = &recs[t as usize];
         let case = &TABLE[r.case as usize];
         let q = r.q.map(|v| [v[0] as i64, v[1] as i64]);
-        let Some(tr) = TetRaster::new(case, &q, clip) else {
+        let Some(mut tr) = TetRaster::new(case, &q, clip) else {
             continue;
         };
         // Attributes (s_f, s_b, l) over fan triangle k: thick + lx·(x − thick) + ly·(y − thick)
@@ -88,16 +88,13 @@ pub(super) fn draw_tile(
                 da[k][ch] = tr.gst[k + 1] as f64 * cx[k][ch] + tr.gst[k] as f64 * cy[k][ch];
             }
         }
+        let (gbias, gst, valid, ntri) = (tr.gbias, tr.gst, tr.valid, tr.ntri);
         tr.rows(|row| {
             let n = (row.i1 - row.i0 + 1) as usize;
-            if batch.len + n > BATCH {
-                frags += batch.len as u64;
-                flush(integ, &mut batch, &pix, &mut buf);
-            }
             // The attributes at the row's first pixel, per triangle.
-            let f: [f64; MAX_FAN] = std::array::from_fn(|m| (row.g[m] - tr.gbias[m]) as f64);
+            let f: [f64; MAX_FAN] = std::array::from_fn(|m| (row.g[m] - gbias[m]) as f64);
             let mut base = [[0.0f64; 4]; 4];
-            for k in 0..tr.ntri {
+            for k in 0..ntri {
                 for ch in 0..3 {
                     base[k][ch] = thick[ch] + f[k + 1] * cx[k][ch] + f[k] * cy[k][ch];
                 }
@@ -107,7 +104,7 @@ pub(super) fn draw_tile(
             // Every pixel of the row is written to the queue; the queue advances only where it
             // is in one of the fan's triangles (no branch: the rows are a few pixels long).
             for kk in 0..n {
-                let t = wedge(fan_bits(&g), tr.valid);
+                let t = wedge(fan_bits(&g), valid);
                 let tri = (t.trailing_zeros() & 3) as usize;
                 let kf = kk as f64;
                 let (b, d) = (&base[tri], &da[tri]);
@@ -117,8 +114,12 @@ pub(super) fn draw_tile(
                 batch.l[len] = (b[2] + kf * d[2]) as f32;
                 pix[len] = p0 + kk as u16;
                 batch.len += (t != 0) as usize;
-                for m in 0..MAX_FAN {
-                    g[m] += tr.gst[m];
+                for (v, s) in g.iter_mut().zip(&gst) {
+                    *v += s;
+                }
+                if batch.len == BATCH {
+                    frags += BATCH as u64;
+                    flush(integ, &mut batch, &pix, &mut buf);
                 }
             }
         });

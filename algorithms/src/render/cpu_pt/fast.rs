@@ -7,11 +7,14 @@
 //!   transfer-function coordinates and the thick vertex's `s_f`, `s_b`, `l`, written by the
 //!   project stage in mesh order, so that drawing a tet in visibility order is one random
 //!   access instead of six (tet, record, four vertices);
-//! - **narrowed rows** ([`raster_fan_rows`]) instead of each fan triangle's bounding box; the
-//!   pixels tested without branches (every pixel is written to the queue, and the queue
-//!   advances only where it is covered), and the attributes as f32 planes stepped along the row
-//!   (an exact search for each row's run of covered pixels and a vectorised fill of the run was
-//!   ~6 % slower per frame: the runs are a few pixels long);
+//! - **the whole tet at once** ([`TetRaster`]): one set of exact integer edge functions per
+//!   tet (silhouette edges and the fan edges from the thick vertex, each shared by the two fan
+//!   triangles it separates), the exact span of each silhouette row, and per pixel the fan
+//!   triangle from the fan edges' signs without a branch (every pixel of the span is written to
+//!   the queue, which advances only where it is in a triangle); the attributes from per-triangle
+//!   f64 planes set up once per tet. Against the per-triangle rows of
+//!   [`raster_fan_rows`](crate::pt::raster_fan_rows) it is ~15 % fewer instructions for the
+//!   rasteriser and ~6 % less CPU per process (docs/performance.md, third pass);
 //! - **batched shading**: fragments are queued (pixel, `s_f`, `s_b`, `l`) and a batch is shaded
 //!   at once ([`FastIntegrator::shade_batch`]) and then composited in queue order, which is the
 //!   order a per-fragment loop would composite in, so the image is the same.

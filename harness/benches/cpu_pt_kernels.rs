@@ -1,7 +1,8 @@
 //! Criterion benches of `cpu-pt`'s per-frame kernels, each on its own, on `post` at 512² (view
 //! 30,20, ortho; the `post-like` analogue when the NASA files are absent):
-//! - `rows` / `per-pixel`: the fan rasteriser of the fast path ([`raster_fan_rows`] with its
-//!   exact per-pixel tests) against the general path's [`raster_fan`], counting fragments;
+//! - `tet` / `rows` / `per-pixel`: the whole-tet rasteriser of the fast path ([`TetRaster`]),
+//!   the per-triangle rows it replaced ([`raster_fan_rows`] with their exact per-pixel tests)
+//!   and the general path's [`raster_fan`], counting fragments;
 //! - `shade-batch` / `shade-scalar`: `partial` on batches of real fragments' `(s_f, s_b, l)`,
 //!   the dispatched lane kernel against the scalar definition;
 //! - `frame`: one whole `cpu-pt` frame (centroid-radix, partial), whose stage split is printed.
@@ -14,7 +15,10 @@ use std::time::Duration;
 use algorithms::camera::{Camera, Projection, View};
 use algorithms::io::{self, LoadOptions};
 use algorithms::optics_f32::{FastIntegrator, ShadeBatch, BATCH};
-use algorithms::pt::{classify, raster_fan, raster_fan_rows, snap, FanGeometry, ProjVertex, Thick};
+use algorithms::pt::{
+    classify, fan_bits, raster_fan, raster_fan_rows, snap, wedge, FanGeometry, ProjVertex,
+    TetRaster, Thick,
+};
 use algorithms::render::{self, RenderOptions};
 use algorithms::{Mesh, TransferFunction};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
@@ -80,6 +84,26 @@ fn cpu_pt_kernels(c: &mut Criterion) {
                         frags += r.covers(k) as u64;
                     }
                 });
+            }
+            frags
+        })
+    });
+    g.bench_function("raster/tet", |b| {
+        b.iter(|| {
+            let mut frags = 0u64;
+            for (f, _, _) in &tets {
+                if let Some(mut t) = TetRaster::new(f.case, &f.q, clip) {
+                    let (gst, valid) = (t.gst, t.valid);
+                    t.rows(|r| {
+                        let mut g = r.g;
+                        for _ in r.i0..=r.i1 {
+                            frags += (wedge(fan_bits(&g), valid) != 0) as u64;
+                            for (v, s) in g.iter_mut().zip(&gst) {
+                                *v += s;
+                            }
+                        }
+                    });
+                }
             }
             frags
         })

@@ -110,24 +110,159 @@ pub fn measure_each(
     Ok(last
         .into_iter()
         .enumerate()
-        .map(|(k, f)| {
-            let t = &times[k];
-            let med =
-                |g: fn(&FrameTimes) -> f64| stats::median(&t.iter().map(g).collect::<Vec<_>>());
-            Measured {
-                image: f.image,
-                counters: f.counters,
-                times: FrameTimes {
-                    project_ms: med(|t| t.project_ms),
-                    sort_ms: med(|t| t.sort_ms),
-                    draw_ms: med(|t| t.draw_ms),
-                    readback_ms: med(|t| t.readback_ms),
-                    total_ms: med(|t| t.total_ms),
-                },
-                total_min_ms: stats::min(&t.iter().map(|t| t.total_ms).collect::<Vec<_>>()),
-                wall_ms: stats::median(&wall[k]),
-                frames: t.len(),
-            }
-        })
+        .map(|(k, f)| summarise(f, &times[k], &wall[k]))
         .collect())
+}
+
+/// The medians of one case's measured frames (`last`: the last of them).
+fn summarise(last: Frame, t: &[FrameTimes], wall: &[f64]) -> Measured {
+    let med = |g: fn(&FrameTimes) -> f64| stats::median(&t.iter().map(g).collect::<Vec<_>>());
+    Measured {
+        image: last.image,
+        counters: last.counters,
+        times: FrameTimes {
+            project_ms: med(|t| t.project_ms),
+            sort_ms: med(|t| t.sort_ms),
+            draw_ms: med(|t| t.draw_ms),
+            readback_ms: med(|t| t.readback_ms),
+            total_ms: med(|t| t.total_ms),
+        },
+        total_min_ms: stats::min(&t.iter().map(|t| t.total_ms).collect::<Vec<_>>()),
+        wall_ms: stats::median(wall),
+        frames: t.len(),
+    }
+}
+
+/// One frame of [`measure_rounds`]: case `k`, warm-up or measured round `round` (0-based in
+/// each kind).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Turn {
+    pub case: usize,
+    pub warmup: bool,
+    pub round: usize,
+}
+
+/// Times `n` cases in rounds: `frames.warmup` warm-up rounds (A B C …, thrown away), then
+/// `frames.repeats` measured rounds A B C …, so that load from other processes and the
+/// machine's drift fall on all cases alike (the experiment key `interleave`). A case whose frame
+/// fails drops out with its error; the others go on. `turn` is called before every frame, in
+/// the order they run (the harness records it in `order.csv`).
+pub fn measure_rounds(
+    n: usize,
+    frames: Frames,
+    mut frame: impl FnMut(usize) -> Result<Frame>,
+    mut turn: impl FnMut(Turn),
+) -> Vec<Result<Measured>> {
+    let mut failed: Vec<Option<algorithms::Error>> = (0..n).map(|_| None).collect();
+    for round in 0..frames.warmup {
+        for (k, fail) in failed.iter_mut().enumerate() {
+            if fail.is_none() {
+                turn(Turn {
+                    case: k,
+                    warmup: true,
+                    round,
+                });
+                if let Err(e) = frame(k) {
+                    *fail = Some(e);
+                }
+            }
+        }
+    }
+    let mut times: Vec<Vec<FrameTimes>> = vec![Vec::new(); n];
+    let mut wall: Vec<Vec<f64>> = vec![Vec::new(); n];
+    let mut last: Vec<Option<Frame>> = (0..n).map(|_| None).collect();
+    for round in 0..frames.repeats.max(1) {
+        for k in 0..n {
+            if failed[k].is_some() {
+                continue;
+            }
+            turn(Turn {
+                case: k,
+                warmup: false,
+                round,
+            });
+            let t0 = Instant::now();
+            match frame(k) {
+                Ok(f) => {
+                    wall[k].push(t0.elapsed().as_secs_f64() * 1e3);
+                    times[k].push(f.times);
+                    last[k] = Some(f);
+                }
+                Err(e) => failed[k] = Some(e),
+            }
+        }
+        if interrupted() {
+            break;
+        }
+    }
+    failed
+        .into_iter()
+        .zip(last)
+        .enumerate()
+        .map(|(k, (e, f))| match (e, f) {
+            (Some(e), _) => Err(e),
+            (None, Some(f)) => Ok(summarise(f, &times[k], &wall[k])),
+            (None, None) => Err(algorithms::Error::Internal(
+                "interrupted before the first measured frame".into(),
+            )),
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `measure_rounds` runs the warm-up rounds, then the measured rounds, each case once per
+    /// round in turn (A B C A B C …); a failing case drops out with its error, the others keep
+    /// their place; each case's medians are of its own frames.
+    #[test]
+    fn rounds_interleave_cases_and_isolate_failures() {
+        let frames = Frames {
+            warmup: 1,
+            repeats: 3,
+        };
+        let mut calls = [0usize; 3];
+        let mut turns = Vec::new();
+        let out = measure_rounds(
+            3,
+            frames,
+            |k| {
+                calls[k] += 1;
+                // Case 2 fails on its third frame (the second measured one).
+                if k == 2 && calls[k] == 3 {
+                    return Err(algorithms::Error::Input("boom".into()));
+                }
+                Ok(Frame {
+                    image: Image::new(1, 1),
+                    times: FrameTimes {
+                        total_ms: (10 * k + calls[k]) as f64,
+                        ..Default::default()
+                    },
+                    counters: Vec::new(),
+                })
+            },
+            |t| turns.push((t.case, t.warmup, t.round)),
+        );
+        let want = vec![
+            (0, true, 0),
+            (1, true, 0),
+            (2, true, 0),
+            (0, false, 0),
+            (1, false, 0),
+            (2, false, 0),
+            (0, false, 1),
+            (1, false, 1),
+            (2, false, 1),
+            (0, false, 2),
+            (1, false, 2),
+        ];
+        assert_eq!(turns, want);
+        let m0 = out[0].as_ref().unwrap();
+        assert_eq!(m0.frames, 3);
+        // Case 0's measured frames are its calls 2, 3, 4: median 3.
+        assert_eq!(m0.times.total_ms, 3.0);
+        assert_eq!(out[1].as_ref().unwrap().times.total_ms, 13.0);
+        assert!(out[2].as_ref().unwrap_err().to_string().contains("boom"));
+    }
 }

@@ -396,3 +396,82 @@ named = ["30,20"]
     assert!(slab[col("tets_per_s")].parse::<f64>().unwrap() > 0.0);
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// `interleave = true`: per view, the warm-up round and then the measured rounds render each
+/// variant once in turn (A B C A B C …), as `order.csv` records; an optional variant that
+/// cannot run is a failed row and takes no turns; the rows are the same set as without it.
+#[test]
+fn interleave_measures_variants_in_rounds() {
+    let d = tmpdir("interleave");
+    let cfg = d.join("i.toml");
+    std::fs::write(
+        &cfg,
+        r#"
+datasets = ["spx:800"]
+renderers = [
+  { name = "cpu-pt", integrators = ["partial"] },
+  { name = "vtk-pt", optional = true },
+  { name = "raycast", integrators = ["partial"] },
+]
+sizes = ["16x16"]
+repeats = 3
+warmup = 1
+error = false
+interleave = true
+[views]
+named = ["0,0", "90,30"]
+"#,
+    )
+    .unwrap();
+    let out = d.join("out");
+    let o = Command::new(env!("CARGO_BIN_EXE_tetbench"))
+        .args([
+            "bench",
+            cfg.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .arg("--no-plots")
+        .env_remove("TETBENCH_VTK_PYTHON")
+        .output()
+        .expect("run tetbench");
+    // (The exit status says that rows failed: vtk-pt's, below.)
+    let (head, rows) = read_csv(&out.join("results.csv"));
+    assert_eq!(rows.len(), 6, "{}", String::from_utf8_lossy(&o.stderr));
+    let col = |n: &str| head.iter().position(|h| h == n).unwrap();
+    for r in &rows {
+        let failed = r[col("renderer")] == "vtk-pt";
+        assert_eq!(r[col("total_ms")] == "NaN", failed, "{r:?}");
+    }
+    let (ohead, order) = read_csv(&out.join("order.csv"));
+    assert_eq!(
+        ohead,
+        [
+            "dataset",
+            "variant",
+            "projection",
+            "size",
+            "view",
+            "warmup",
+            "round"
+        ]
+    );
+    let got: Vec<(String, String, String, String)> = order
+        .iter()
+        .map(|r| (r[4].clone(), r[1].clone(), r[5].clone(), r[6].clone()))
+        .collect();
+    let mut want = Vec::new();
+    for view in ["named:0", "named:1"] {
+        for (warm, round) in [(true, 0), (false, 0), (false, 1), (false, 2)] {
+            for v in ["cpu-pt/centroid/partial", "raycast/partial"] {
+                want.push((
+                    view.to_string(),
+                    v.to_string(),
+                    warm.to_string(),
+                    round.to_string(),
+                ));
+            }
+        }
+    }
+    assert_eq!(got, want);
+}

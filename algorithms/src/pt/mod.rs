@@ -33,9 +33,11 @@
 
 mod faces;
 mod raster;
+mod tet_raster;
 
 pub use faces::{fan_segment, FaceSegment, FaceVertex};
 pub use raster::{raster_fan, raster_fan_rows, FanGeometry, Fragment, Row};
+pub use tet_raster::{fan_bits, wedge, TetRaster, TetRow, MAX_FAN};
 
 use glam::DVec3;
 

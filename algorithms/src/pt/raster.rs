@@ -64,7 +64,7 @@ impl FanGeometry {
 /// Direction of the fan edge from the thick vertex towards vertex `v` (see
 /// [`FanGeometry::dir_from_thick`]).
 #[inline]
-fn dir_from_thick(c: &Case, q: &[[i64; 2]; 4], v: usize) -> [i64; 2] {
+pub(super) fn dir_from_thick(c: &Case, q: &[[i64; 2]; 4], v: usize) -> [i64; 2] {
     let anchor = if c.class == 2 {
         let set = if c.side_a & (1 << v) != 0 {
             c.side_a
@@ -80,7 +80,7 @@ fn dir_from_thick(c: &Case, q: &[[i64; 2]; 4], v: usize) -> [i64; 2] {
 
 /// Index of the first pixel whose centre is ≥ `x` (snapped units).
 #[inline]
-fn first_centre(x: i64) -> i64 {
+pub(super) fn first_centre(x: i64) -> i64 {
     let v = x - SUBPIXEL / 2;
     v.div_euclid(SUBPIXEL) + (v.rem_euclid(SUBPIXEL) != 0) as i64
 }
@@ -88,21 +88,21 @@ fn first_centre(x: i64) -> i64 {
 /// `x.floor() as i64` without the libm call (`f64::floor` is one on baseline x86-64); the
 /// snapped coordinates are far below 2^52, where the truncation is exact.
 #[inline]
-fn floor_i64(x: f64) -> i64 {
+pub(super) fn floor_i64(x: f64) -> i64 {
     let t = x as i64;
     t - ((t as f64) > x) as i64
 }
 
 /// `x.ceil() as i64`, as [`floor_i64`].
 #[inline]
-fn ceil_i64(x: f64) -> i64 {
+pub(super) fn ceil_i64(x: f64) -> i64 {
     let t = x as i64;
     t + ((t as f64) < x) as i64
 }
 
 /// Index of the last pixel whose centre is ≤ `x`.
 #[inline]
-fn last_centre(x: i64) -> i64 {
+pub(super) fn last_centre(x: i64) -> i64 {
     (x - SUBPIXEL / 2).div_euclid(SUBPIXEL)
 }
 
@@ -121,20 +121,20 @@ pub struct Fragment {
 /// An oriented edge line: inside is `E(p) = d × (p − b) > 0`; `bias` = 1 when the edge owns
 /// the centres on it (the perturbed point (+ε, −ε²) is inside: `E(p + δ) = −d.x·ε² − d.y·ε`).
 #[derive(Clone, Copy)]
-struct Edge {
+pub(super) struct Edge {
     b: [i64; 2],
-    d: [i64; 2],
-    bias: i64,
+    pub(super) d: [i64; 2],
+    pub(super) bias: i64,
 }
 
 impl Edge {
     #[inline]
-    fn new(b: [i64; 2], d: [i64; 2]) -> Edge {
+    pub(super) fn new(b: [i64; 2], d: [i64; 2]) -> Edge {
         let bias = (d[1] < 0 || (d[1] == 0 && d[0] < 0)) as i64;
         Edge { b, d, bias }
     }
     #[inline]
-    fn at(&self, p: [i64; 2]) -> i64 {
+    pub(super) fn at(&self, p: [i64; 2]) -> i64 {
         self.d[0] * (p[1] - self.b[1]) - self.d[1] * (p[0] - self.b[0])
     }
 }

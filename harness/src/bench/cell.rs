@@ -167,14 +167,8 @@ pub fn isolated<T>(f: impl FnOnce() -> Result<T>) -> Result<T> {
     }
 }
 
-/// Measures one cell: the row (a failed frame is a row with NaN times and the error as its
-/// note) and, when the frames ran, the last image. With `reference`, the error against it.
-pub fn measure_cell(
-    exp: &Experiment,
-    p: &mut Prepared,
-    cell: &Cell,
-    reference: Option<&Path>,
-) -> Result<(Row, Option<Image>)> {
+/// The row fields of `cell` for variant `p`, before measuring.
+fn cell_row(p: &Prepared, cell: &Cell) -> Row {
     let (w, h) = cell.size;
     let mut row = p.base.clone();
     row.width = w;
@@ -183,23 +177,58 @@ pub fn measure_cell(
     row.azimuth = cell.view.view.azimuth;
     row.elevation = cell.view.view.elevation;
     row.projection = cell.projection.name().to_string();
+    row
+}
+
+fn cell_camera(p: &Prepared, cell: &Cell) -> Camera {
+    let (w, h) = cell.size;
+    Camera::new(&p.mesh.bbox(), cell.view.view, cell.projection, w, h)
+}
+
+/// Whether [`TEST_PANIC_ENV`] asks variant `p` to panic in `cell`.
+fn test_panic(p: &Prepared, cell: &Cell) -> bool {
+    let label = format!("{}@{}", p.base.variant, cell.view.id);
+    std::env::var(TEST_PANIC_ENV).is_ok_and(|v| {
+        v.split(',')
+            .any(|c| c == label || c.strip_suffix("@*") == Some(p.base.variant.as_str()))
+    })
+}
+
+/// Renders one frame of `p`, a panic turned into an error.
+fn frame(p: &mut Prepared, cam: &Camera, panic: bool) -> Result<algorithms::render::Frame> {
+    let renderer = p.renderer.as_mut();
+    let mesh = &p.mesh;
+    isolated(|| {
+        if panic {
+            TestPanic(renderer).render(mesh, cam)
+        } else {
+            renderer.render(mesh, cam)
+        }
+    })
+}
+
+/// Measures one cell: the row (a failed frame is a row with NaN times and the error as its
+/// note) and, when the frames ran, the last image. With `reference`, the error against it.
+pub fn measure_cell(
+    exp: &Experiment,
+    p: &mut Prepared,
+    cell: &Cell,
+    reference: Option<&Path>,
+) -> Result<(Row, Option<Image>)> {
+    let row = cell_row(p, cell);
     let result = match &p.failed {
         Some(e) => Err(Error::Input(e.clone())),
         None => {
-            let cam = Camera::new(&p.mesh.bbox(), cell.view.view, cell.projection, w, h);
+            let cam = cell_camera(p, cell);
             let frames = Frames {
                 warmup: exp.warmup,
                 repeats: exp.repeats,
             };
-            let label = format!("{}@{}", p.base.variant, cell.view.id);
+            let panic = test_panic(p, cell);
             let renderer = p.renderer.as_mut();
             let mesh = &p.mesh;
             isolated(|| {
-                if std::env::var(TEST_PANIC_ENV).is_ok_and(|v| {
-                    v.split(',').any(|c| {
-                        c == label || c.strip_suffix("@*") == Some(p.base.variant.as_str())
-                    })
-                }) {
+                if panic {
                     let mut r = TestPanic(renderer);
                     return measure::measure(&mut r, mesh, &cam, frames);
                 }
@@ -207,6 +236,57 @@ pub fn measure_cell(
             })
         }
     };
+    finish_row(row, result, p, reference)
+}
+
+/// Measures one cell for several variants at once, interleaved (the experiment key
+/// `interleave`): warm-up rounds, then measured rounds, each rendering every variant once in
+/// turn ([`measure::measure_rounds`]). A variant whose `prepare` or frame fails gets a failed
+/// row; the others are measured all the same. `turn(variant, t)` is called before each frame,
+/// in the order they run. The rows come back in the order of `ps`.
+pub fn measure_cell_interleaved(
+    exp: &Experiment,
+    ps: &mut [&mut Prepared],
+    cell: &Cell,
+    reference: Option<&Path>,
+    mut turn: impl FnMut(&str, measure::Turn),
+) -> Result<Vec<(Row, Option<Image>)>> {
+    let live: Vec<usize> = (0..ps.len()).filter(|&i| ps[i].failed.is_none()).collect();
+    let labels: Vec<String> = live.iter().map(|&i| ps[i].base.variant.clone()).collect();
+    let cams: Vec<Camera> = live.iter().map(|&i| cell_camera(ps[i], cell)).collect();
+    let panics: Vec<bool> = live.iter().map(|&i| test_panic(ps[i], cell)).collect();
+    let frames = Frames {
+        warmup: exp.warmup,
+        repeats: exp.repeats,
+    };
+    let mut results = measure::measure_rounds(
+        live.len(),
+        frames,
+        |k| frame(ps[live[k]], &cams[k], panics[k]),
+        |t| turn(&labels[t.case], t),
+    )
+    .into_iter();
+    let mut out = Vec::with_capacity(ps.len());
+    for p in ps.iter_mut() {
+        let row = cell_row(p, cell);
+        let result = match &p.failed {
+            Some(e) => Err(Error::Input(e.clone())),
+            None => results
+                .next()
+                .unwrap_or_else(|| Err(Error::Internal("measure_rounds: a case lost".into()))),
+        };
+        out.push(finish_row(row, result, p, reference)?);
+    }
+    Ok(out)
+}
+
+/// Fills `row` from the measured frames (or marks it failed with the error as its note).
+fn finish_row(
+    mut row: Row,
+    result: Result<measure::Measured>,
+    p: &Prepared,
+    reference: Option<&Path>,
+) -> Result<(Row, Option<Image>)> {
     let m = match result {
         Ok(m) => m,
         Err(e) => {

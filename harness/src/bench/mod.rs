@@ -26,7 +26,9 @@ use crate::sweep::{self, Lock, Shard, ShardInfo};
 /// Bumped when the reference renderer's output changes, so old cache entries are not reused.
 mod cell;
 mod images;
-pub use cell::{cells, isolated, measure_cell, Cell, Prepared, TEST_PANIC_ENV};
+pub use cell::{
+    cells, isolated, measure_cell, measure_cell_interleaved, Cell, Prepared, TEST_PANIC_ENV,
+};
 use images::{compare_pairs, image_stem, ref_path, save_images};
 pub use images::{mesh_hash, sanitize};
 
@@ -41,6 +43,21 @@ pub struct Outcome {
     /// Reference images rendered (cache misses) and read from the cache (hits).
     pub reference_renders: usize,
     pub reference_hits: usize,
+    /// With `interleave`: every frame in the order it was rendered (also `DIR/order.csv`).
+    pub order: Vec<OrderRow>,
+}
+
+/// One frame of an interleaved measurement, as `DIR/order.csv` lists them: which variant of
+/// which cell, warm-up or measured, and in which round (0-based in each kind).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct OrderRow {
+    pub dataset: String,
+    pub variant: String,
+    pub projection: String,
+    pub size: String,
+    pub view: String,
+    pub warmup: bool,
+    pub round: usize,
 }
 
 /// How to run: output directory, cache and progress display.
@@ -270,6 +287,29 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<Outcome> {
             .flat_map(|p| [p.test.as_str(), p.reference.as_str()])
             .collect();
         let pair_dir = opts.out.join(".pairs");
+        // What is done with each measured row: its images, its pair image, the CSV.
+        let emit = |var: &Variant,
+                    cell: &Cell,
+                    row: Row,
+                    image: Option<Image>,
+                    csv: &mut CsvSink,
+                    out: &mut Outcome|
+         -> Result<()> {
+            if let Some(img) = &image {
+                let reference = exp.error.then(|| ref_path(opts, &hash, exp, cell));
+                save_images(exp, opts, var, &name, cell, img, reference.as_deref())?;
+                if pair_labels.contains(var.label.as_str()) {
+                    let d = pair_dir.join(sanitize(&var.label));
+                    std::fs::create_dir_all(&d).map_err(|e| Error::io(&d, e))?;
+                    img.write(&d.join(format!("{}.exr", image_stem(&var.label, cell))))?;
+                }
+            }
+            csv.write(&row)?;
+            out.rows.push(row);
+            bar.inc(1);
+            Ok(())
+        };
+        let mut prepared = Vec::new();
         for (vi, var) in exp.variants.iter().enumerate() {
             if var.max_tets.is_some_and(|m| mesh.num_tets() > m) {
                 progress::note(
@@ -288,7 +328,12 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<Outcome> {
                 continue;
             }
             bar.set_message(format!("{name}: {} setup", var.label));
-            let mut prepared = Prepared::new(exp, var, &name, &mesh)?;
+            let mut p = Prepared::new(exp, var, &name, &mesh)?;
+            if exp.interleave {
+                // Measured below, cell by cell, with the other variants.
+                prepared.push((var, k, p));
+                continue;
+            }
             for (ci, cell) in cells.iter().enumerate() {
                 if !todo(k, ci) {
                     continue;
@@ -300,20 +345,49 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<Outcome> {
                 let (w, h) = cell.size;
                 bar.set_message(format!("{name}: {} {w}x{h} {}", var.label, cell.view.id));
                 let reference = exp.error.then(|| ref_path(opts, &hash, exp, cell));
-                let (row, image) = measure_cell(exp, &mut prepared, cell, reference.as_deref())?;
-                if let Some(img) = &image {
-                    save_images(exp, opts, var, &name, cell, img, reference.as_deref())?;
-                    if pair_labels.contains(var.label.as_str()) {
-                        let d = pair_dir.join(sanitize(&var.label));
-                        std::fs::create_dir_all(&d).map_err(|e| Error::io(&d, e))?;
-                        img.write(&d.join(format!("{}.exr", image_stem(&var.label, cell))))?;
-                    }
-                }
-                csv.write(&row)?;
-                out.rows.push(row);
-                bar.inc(1);
+                let (row, image) = measure_cell(exp, &mut p, cell, reference.as_deref())?;
+                emit(var, cell, row, image, &mut csv, &mut out)?;
             }
         }
+        // `interleave`: every variant prepared above, each cell measured in rounds A B C ….
+        for (ci, cell) in cells.iter().enumerate() {
+            let mut group: Vec<(&Variant, &mut Prepared)> = prepared
+                .iter_mut()
+                .filter(|(_, k, _)| todo(*k, ci))
+                .map(|(v, _, p)| (*v, p))
+                .collect();
+            if group.is_empty() {
+                continue;
+            }
+            if measure::interrupted() {
+                out.interrupted = true;
+                break 'datasets;
+            }
+            let (w, h) = cell.size;
+            bar.set_message(format!(
+                "{name}: {} variants interleaved, {w}x{h} {}",
+                group.len(),
+                cell.view.id
+            ));
+            let reference = exp.error.then(|| ref_path(opts, &hash, exp, cell));
+            let mut ps: Vec<&mut Prepared> = group.iter_mut().map(|(_, p)| &mut **p).collect();
+            let rows =
+                measure_cell_interleaved(exp, &mut ps, cell, reference.as_deref(), |v, t| {
+                    out.order.push(OrderRow {
+                        dataset: name.clone(),
+                        variant: v.to_string(),
+                        projection: cell.projection.name().to_string(),
+                        size: format!("{w}x{h}"),
+                        view: cell.view.id.clone(),
+                        warmup: t.warmup,
+                        round: t.round,
+                    })
+                })?;
+            for ((var, _), (row, image)) in group.iter().zip(rows) {
+                emit(var, cell, row, image, &mut csv, &mut out)?;
+            }
+        }
+        drop(prepared);
         // Pairs: image against image, after every variant of this dataset has run.
         for row in compare_pairs(exp, &cells, &pair_dir, &name, mesh.num_tets()) {
             if let Some(w) = pair_csv.as_mut() {
@@ -324,6 +398,9 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<Outcome> {
         let _ = std::fs::remove_dir_all(&pair_dir);
     }
     bar.finish_and_clear();
+    if exp.interleave {
+        write_order(&opts.out.join("order.csv"), &out.order)?;
+    }
     if !out.interrupted {
         info.rows = Some((mine, all));
         info.write(&opts.out)?;
@@ -374,10 +451,21 @@ fn references(
     Ok(true)
 }
 
+/// Writes the frame order of an interleaved run.
+fn write_order(p: &Path, order: &[OrderRow]) -> Result<()> {
+    let mut w =
+        csv::Writer::from_path(p).map_err(|e| Error::Input(format!("{}: {e}", p.display())))?;
+    for r in order {
+        w.serialize(r)
+            .map_err(|e| Error::Input(format!("{}: {e}", p.display())))?;
+    }
+    w.flush().map_err(|e| Error::io(p, e))
+}
+
 fn write_meta(exp: &Experiment, opts: &RunOptions) -> Result<()> {
     let p = opts.out.join("meta.txt");
     let text = format!(
-        "experiment: {}\ndate: {}\nmachine: {}\nthreads: {}\ntf: {}\nrepeats: {}\nwarmup: {}\nvariants: {}\n",
+        "experiment: {}\ndate: {}\nmachine: {}\nthreads: {}\ntf: {}\nrepeats: {}\nwarmup: {}\ninterleave: {}\nvariants: {}\n",
         exp.name,
         crate::sysinfo::now_utc(),
         crate::sysinfo::machine(),
@@ -385,6 +473,7 @@ fn write_meta(exp: &Experiment, opts: &RunOptions) -> Result<()> {
         exp.tf_name,
         exp.repeats,
         exp.warmup,
+        exp.interleave,
         exp.variants
             .iter()
             .map(|v| v.label.as_str())

@@ -51,6 +51,12 @@ pub struct Config {
     /// Measure error against the cached `reference` images (default true).
     #[serde(default)]
     pub error: Option<bool>,
+    /// Measure the variants of each (dataset, projection, size, view) interleaved: all
+    /// prepared at once, then warm-up and measured rounds that render each variant once in
+    /// turn (A B C A B C …), instead of all frames of one variant before the next (default
+    /// false).
+    #[serde(default)]
+    pub interleave: Option<bool>,
     /// Save every measured image as EXR and PNG under `DIR/images/` (default false).
     #[serde(default)]
     pub save_images: Option<bool>,
@@ -252,6 +258,8 @@ pub struct Experiment {
     pub repeats: usize,
     pub warmup: usize,
     pub error: bool,
+    /// See [`Config::interleave`].
+    pub interleave: bool,
     pub save_images: bool,
     pub cache_dir: Option<PathBuf>,
     pub seed: u64,
@@ -428,6 +436,7 @@ pub fn validate(cfg: Config, base: &Path) -> Result<Experiment> {
         repeats,
         warmup: cfg.warmup.unwrap_or(1),
         error: cfg.error.unwrap_or(true),
+        interleave: cfg.interleave.unwrap_or(false),
         save_images: cfg.save_images.unwrap_or(false),
         cache_dir: cfg.cache_dir,
         seed: cfg.seed.unwrap_or(meshes::DEFAULT_SEED),

@@ -1,0 +1,268 @@
+//! The whole-tet rasteriser of `cpu-pt`'s fast path: one set of edge functions per tet and the
+//! rows of its silhouette, instead of the rows of each fan triangle.
+//!
+//! **Edges.** A fan of `n` triangles (thick, fan[k], fan[k+1]) has `n + 1` *fan edges*, the lines
+//! from the thick vertex to fan[k] (k = 0..=n; for the closed fans of classes 1 and 2 the last is
+//! the first), and the silhouette edges fan[k] → fan[k+1] (plus, for classes 3 and 4, the fan's
+//! first and last edges, which lie on the silhouette). With `F_k(p) = d_k × (p − fan[k])`, d_k the
+//! direction of [`raster_fan`]'s edge from the thick vertex to fan[k], and `b_k` its fill-rule
+//! bias, [`raster_fan`] puts a centre p in triangle k iff
+//! `F_k + b_k > 0`, `−F_{k+1} + (1 − b_{k+1}) > 0` (the same line seen from the other side: its
+//! bias is the complement) and the silhouette edge of k is positive. So with the bits
+//! `β_k = [F_k(p) + b_k > 0]`, triangle k holds p iff `β_k ∧ ¬β_{k+1}` and p is inside the
+//! silhouette edge — exactly the per-triangle tests, with each fan edge evaluated once.
+//!
+//! **Which triangle.** Inside the silhouette the fan's triangles tile it, so exactly one k has
+//! `β_k ∧ ¬β_{k+1}` ([`wedge`]: the lowest set bit of `β & ¬(β >> 1)`): for a closed fan the
+//! angles between consecutive fan edges are below 180°, so the β_k that hold are one circular
+//! run; for the open fans (classes 3, 4) β_0 = 1 and β_n = 0 inside. Outside the silhouette
+//! (with classes 3 and 4) the wedge may be empty; the rows exclude the rest.
+//!
+//! **Rows.** The silhouette is convex: per row, each silhouette edge bounds the covered centres
+//! from one side at `k = −h/st` (h its biased value at the row's first column, st its step per
+//! pixel). That bound is estimated in f64 and corrected by one exact integer test each way, so the
+//! row's range is exact: every centre in it is inside the silhouette, and [`raster_fan`] covers
+//! the same centres (test: `tet_rasteriser_matches_per_pixel_rasteriser`, and on `post` in
+//! `cpu_pt`'s tests).
+//!
+//! [`raster_fan`]: super::raster_fan
+
+use super::raster::{ceil_i64, dir_from_thick, first_centre, floor_i64, last_centre, Edge};
+use super::{pixel_centre, Case, Fragment, SUBPIXEL};
+
+/// Fan edges at most (class 2: four triangles, five fan edges).
+pub const MAX_FAN: usize = 5;
+
+/// A silhouette edge as the rows see it: biased value at the current row's first column, steps
+/// per pixel (`st`) and per row (`sr`), and `1/st`.
+#[derive(Clone, Copy, Debug, Default)]
+struct SilEdge {
+    h: i64,
+    st: i64,
+    sr: i64,
+    inv: f64,
+}
+
+/// One classified tet, set up for [`TetRaster::rows`].
+#[derive(Clone, Copy, Debug)]
+pub struct TetRaster {
+    /// Triangles in the fan.
+    pub ntri: usize,
+    /// Bit k set when triangle k has positive barycentric normalisers (always, for a table
+    /// entry on exact tests; [`raster_fan`](super::raster_fan) skips the others, and so does this).
+    pub valid: u32,
+    /// Columns `ia..=ib` and rows `j0..=j1`: the silhouette's pixel box within the clip.
+    pub ia: i64,
+    pub ib: i64,
+    pub j0: i64,
+    pub j1: i64,
+    /// Fan edges k ≤ ntri: `F_k + b_k` at centre (ia, j0), steps per pixel and per row, and
+    /// `b_k`; entries past ntri are 0 (their bit is never set).
+    pub g: [i64; MAX_FAN],
+    pub gst: [i64; MAX_FAN],
+    pub gsr: [i64; MAX_FAN],
+    pub gbias: [i64; MAX_FAN],
+    /// Barycentric normalisers per triangle k: the weight of fan[k] is `lx = −F_{k+1}·inv_x[k]`,
+    /// that of fan[k + 1] is `ly = F_k·inv_y[k]`, the thick vertex's `1 − lx − ly` (the weights
+    /// of [`Fragment`]).
+    pub inv_x: [f64; 4],
+    pub inv_y: [f64; 4],
+    /// Silhouette edges (at most four): first those bounding the row from below (st > 0,
+    /// `nlo` of them), then from above (st < 0, `nhi`), then the horizontal ones (st = 0, a row
+    /// is inside or not), `nsil` in all.
+    sil: [SilEdge; 4],
+    nlo: u8,
+    nhi: u8,
+    nsil: u8,
+}
+
+/// One row of the silhouette: columns `i0..=i1` of row `j`, every centre of it inside the
+/// silhouette, and the biased fan edges at `i0` (pixel `i0 + k` has `g[m] + k·gst[m]`).
+#[derive(Clone, Copy, Debug)]
+pub struct TetRow {
+    pub j: i64,
+    pub i0: i64,
+    pub i1: i64,
+    pub g: [i64; MAX_FAN],
+}
+
+/// The bits `β_k = [g_k > 0]` of a pixel's biased fan edges.
+#[inline(always)]
+pub fn fan_bits(g: &[i64; MAX_FAN]) -> u32 {
+    let mut b = 0u32;
+    for (k, &v) in g.iter().enumerate() {
+        b |= ((v > 0) as u32) << k;
+    }
+    b
+}
+
+/// The triangle of a pixel as one bit (bit k: triangle k), or 0 where it is in none of the
+/// valid ones: `β & ¬(β >> 1) & valid`. The triangle is its `trailing_zeros`.
+#[inline(always)]
+pub fn wedge(bits: u32, valid: u32) -> u32 {
+    bits & !(bits >> 1) & valid
+}
+
+impl TetRaster {
+    /// Sets up the tet of table entry `c` with snapped vertices `q` for the inclusive pixel
+    /// rectangle `clip = [i0, j0, i1, j1]`; `None` when nothing is drawn there.
+    #[inline]
+    pub fn new(c: &Case, q: &[[i64; 2]; 4], clip: [i64; 4]) -> Option<TetRaster> {
+        if !c.drawn() {
+            return None;
+        }
+        let n = c.ntri as usize;
+        let (mut lo, mut hi) = ([i64::MAX; 2], [i64::MIN; 2]);
+        for p in q {
+            for a in 0..2 {
+                lo[a] = lo[a].min(p[a]);
+                hi[a] = hi[a].max(p[a]);
+            }
+        }
+        let ia = first_centre(lo[0]).max(clip[0]);
+        let j0 = first_centre(lo[1]).max(clip[1]);
+        let ib = last_centre(hi[0]).min(clip[2]);
+        let j1 = last_centre(hi[1]).min(clip[3]);
+        if ia > ib || j0 > j1 {
+            return None;
+        }
+        let p = [pixel_centre(ia), pixel_centre(j0)];
+        let mut r = TetRaster {
+            ntri: n,
+            valid: 0,
+            ia,
+            ib,
+            j0,
+            j1,
+            g: [0; MAX_FAN],
+            gst: [0; MAX_FAN],
+            gsr: [0; MAX_FAN],
+            gbias: [0; MAX_FAN],
+            inv_x: [0.0; 4],
+            inv_y: [0.0; 4],
+            sil: [SilEdge::default(); 4],
+            nlo: 0,
+            nhi: 0,
+            nsil: 0,
+        };
+        let dir = |k: usize| dir_from_thick(c, q, c.fan[k] as usize);
+        for k in 0..=n {
+            let e = Edge::new(q[c.fan[k] as usize], dir(k));
+            r.g[k] = e.at(p) + e.bias;
+            r.gst[k] = -e.d[1] * SUBPIXEL;
+            r.gsr[k] = e.d[0] * SUBPIXEL;
+            r.gbias[k] = e.bias;
+        }
+        for tri in 0..n {
+            let (x, y) = (q[c.fan[tri] as usize], q[c.fan[tri + 1] as usize]);
+            r.add_silhouette(Edge::new(x, [y[0] - x[0], y[1] - x[1]]), p);
+            // The normalisers of raster_fan: e0(y) and e2(x).
+            let (dx, dy) = (dir(tri), dir(tri + 1));
+            let n_y = Edge::new(x, dx).at(y);
+            let n_x = Edge::new(y, [-dy[0], -dy[1]]).at(x);
+            if n_y > 0 && n_x > 0 {
+                r.valid |= 1 << tri;
+                r.inv_x[tri] = 1.0 / n_x as f64;
+                r.inv_y[tri] = 1.0 / n_y as f64;
+            }
+        }
+        if c.class == 3 || c.class == 4 {
+            // The open fans: their first and last fan edges are silhouette edges too (class 3:
+            // both on the line the thick vertex lies on).
+            r.add_silhouette(Edge::new(q[c.fan[0] as usize], dir(0)), p);
+            let d = dir(n);
+            r.add_silhouette(Edge::new(q[c.fan[n] as usize], [-d[0], -d[1]]), p);
+        }
+        // Group the silhouette edges: lower bounds, upper bounds, horizontal.
+        let key = |e: &SilEdge| (e.st <= 0) as u8 + (e.st == 0) as u8;
+        r.sil[..r.nsil as usize].sort_unstable_by_key(key);
+        r.nlo = r.sil[..r.nsil as usize].iter().filter(|e| e.st > 0).count() as u8;
+        r.nhi = r.sil[..r.nsil as usize].iter().filter(|e| e.st < 0).count() as u8;
+        Some(r)
+    }
+
+    fn add_silhouette(&mut self, e: Edge, p: [i64; 2]) {
+        let st = -e.d[1] * SUBPIXEL;
+        let s = SilEdge {
+            h: e.at(p) + e.bias,
+            st,
+            sr: e.d[0] * SUBPIXEL,
+            inv: if st != 0 { 1.0 / st as f64 } else { 0.0 },
+        };
+        self.sil[self.nsil as usize] = s;
+        self.nsil += 1;
+    }
+
+    /// Calls `f` for each row of the silhouette with a covered centre, top to bottom. Once:
+    /// it steps the silhouette edges in place.
+    #[inline]
+    pub fn rows(&mut self, mut f: impl FnMut(&TetRow)) {
+        let last = self.ib - self.ia;
+        let (nlo, nhi) = (self.nlo as usize, self.nhi as usize);
+        let (lo, rest) = self.sil[..self.nsil as usize].split_at_mut(nlo);
+        let (hi, flat) = rest.split_at_mut(nhi);
+        let mut g = self.g;
+        for j in self.j0..=self.j1 {
+            let (mut a, mut b) = (0i64, last);
+            for e in lo.iter_mut() {
+                // The first k with h + k·st > 0: ⌊−h/st⌋ + 1, the estimate within 1 of it.
+                let mut k = (floor_i64(-(e.h as f64) * e.inv) + 1).clamp(-1, last + 1);
+                k -= (e.h + (k - 1) * e.st > 0) as i64;
+                k += (e.h + k * e.st <= 0) as i64;
+                a = a.max(k);
+                e.h += e.sr;
+            }
+            for e in hi.iter_mut() {
+                // The last k with h + k·st > 0 (st < 0): ⌈−h/st⌉ − 1.
+                let mut k = (ceil_i64(-(e.h as f64) * e.inv) - 1).clamp(-1, last + 1);
+                k += (e.h + (k + 1) * e.st > 0) as i64;
+                k -= (e.h + k * e.st <= 0) as i64;
+                b = b.min(k);
+                e.h += e.sr;
+            }
+            for e in flat.iter_mut() {
+                if e.h <= 0 {
+                    b = -1;
+                }
+                e.h += e.sr;
+            }
+            if a <= b {
+                f(&TetRow {
+                    j,
+                    i0: self.ia + a,
+                    i1: self.ia + b,
+                    g: std::array::from_fn(|m| g[m] + a * self.gst[m]),
+                });
+            }
+            for (v, s) in g.iter_mut().zip(&self.gsr) {
+                *v += s;
+            }
+        }
+    }
+
+    /// Calls `f` for every centre covered, as [`raster_fan`](super::raster_fan) would (the same
+    /// centres, triangles and weights; the order is by rows, not by triangles).
+    pub fn fragments(mut self, mut f: impl FnMut(Fragment)) {
+        let me = self;
+        self.rows(|r| {
+            let mut g = r.g;
+            for i in r.i0..=r.i1 {
+                let t = wedge(fan_bits(&g), me.valid);
+                if t != 0 {
+                    let tri = t.trailing_zeros() as usize;
+                    let fk = |k: usize| (g[k] - me.gbias[k]) as f64;
+                    f(Fragment {
+                        i,
+                        j: r.j,
+                        tri,
+                        lx: -fk(tri + 1) * me.inv_x[tri],
+                        ly: fk(tri) * me.inv_y[tri],
+                    });
+                }
+                for (v, s) in g.iter_mut().zip(&me.gst) {
+                    *v += s;
+                }
+            }
+        });
+    }
+}

@@ -182,6 +182,13 @@ impl Bvh {
         }
     }
 
+    /// The sign of the edge products (in [`FACE_VERTS`] circulation) of a ray entering through
+    /// the face at leaf index `leaf` (as [`Bvh::first_entry`] returns it).
+    #[inline]
+    pub(super) fn entering_sign(&self, leaf: u32) -> bool {
+        self.entering[leaf as usize]
+    }
+
     /// Slab test: the parameter interval where the ray is inside the box, clipped to
     /// [t_lo, t_hi]; expanded by a relative epsilon so grazing rays are not lost.
     #[inline]

@@ -4,6 +4,12 @@
 //! cell-step and missed-ray counts; the expected hashes were taken from the ray caster before
 //! the walk, shading and BVH changes of issue 15 (commit d6960c3, the same images as the
 //! original). A change to any pixel's last bit, or to the cells a ray visits, fails here.
+//!
+//! The `partial` pins were re-taken once, deliberately, when `partial` got its projected walk
+//! and one `expm1` a segment instead of `exp` + `expm1` (`ζ = 1 − α`): the same cells, and
+//! pixels within ~1e-12 of the pinned ones (`projected_walk_matches_the_reference_walk` below
+//! holds the projected walk to the reference walk; on blunt, comb and post at 512² the f32
+//! images did not change in any bit). The `exact` pins are the original ones.
 
 use algorithms::camera::{Camera, Projection, View};
 use algorithms::render::raycast::RayCaster;
@@ -61,7 +67,7 @@ const CASES: &[Case] = &[
         (30.0, 20.0),
         Projection::Ortho,
         "partial",
-        0xb27a_842e_f910_adf9,
+        0xbcfd_de8f_a81e_34aa,
     ),
     (
         "hard-zero-volume",
@@ -93,7 +99,7 @@ const CASES: &[Case] = &[
         (90.0, 0.0),
         Projection::Ortho,
         "partial",
-        0x9aa3_80ef_a6cd_a853,
+        0x65c0_227c_4f92_c04e,
     ),
     (
         "torus",
@@ -101,7 +107,7 @@ const CASES: &[Case] = &[
         (30.0, 60.0),
         Projection::Persp,
         "partial",
-        0xd871_810e_edcd_4879,
+        0xe3c7_7560_4e70_c1d0,
     ),
 ];
 
@@ -112,9 +118,6 @@ fn ray_caster_images_are_bit_identical_to_the_pinned_ones() {
     for &(name, tets, (az, el), proj, integrator, want) in CASES {
         let mesh = datasets_gen::generate(name, Some(tets), 1).unwrap();
         let mut rc = RayCaster::new(integrator, "raycast");
-        // The pins are the reference walk's (partial walks the projected way by default; the
-        // test below holds the two together).
-        rc.set_projected_walk(false);
         rc.prepare(&mesh, &tf).unwrap();
         let cam = Camera::new(&mesh.bbox(), View::new(az, el), proj, 96, 80);
         let (px, stats) = rc.render_f64(&mesh, &cam).unwrap();

@@ -15,6 +15,7 @@
 //! which the depth and scalar are interpolated; the exit of one cell is the entry of the next.
 
 mod bvh;
+mod entry;
 mod predicate;
 mod projected;
 mod shade;
@@ -302,6 +303,11 @@ impl Prepared {
         let w = camera.width.max(1) as usize;
         let tets = mesh.tets();
         let front = self.bvh.front(&self.verts, tets, camera);
+        let grid = if projected {
+            entry::EntryGrid::new(self, tets, &front, camera)
+        } else {
+            None
+        };
         px.par_chunks_mut(w * TILE)
             .enumerate()
             .map(|(b, band)| {
@@ -316,7 +322,8 @@ impl Prepared {
                             let ray = camera.pixel_ray(i as u32, j as u32);
                             let ctx = RayCtx::new(&ray, camera, self.max_abs);
                             let (seg, s) = if projected {
-                                self.cast_projected(tets, shade, &front, &ctx, &mut seed)
+                                let first = (grid.as_ref(), i, j);
+                                self.cast_projected(tets, shade, &front, &ctx, first, &mut seed)
                             } else {
                                 self.cast(tets, shade, &front, &ctx, &mut seed)
                             };

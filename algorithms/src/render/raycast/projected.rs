@@ -31,6 +31,7 @@ use std::cell::Cell;
 use glam::DVec3;
 
 use super::bvh::Front;
+use super::entry::EntryGrid;
 use super::predicate::RayCtx;
 use super::shade::Shade;
 use super::{Prepared, RayStats, Vert, TERMINATE_T};
@@ -142,6 +143,13 @@ impl Frame2 {
         if v < -self.bound {
             return (v, !w);
         }
+        self.undecided(st, ray, ia, ib, w)
+    }
+
+    /// [`Frame2::side`] below the bound: the exact predicate, counted.
+    #[cold]
+    #[inline(never)]
+    fn undecided(&self, st: &Prepared, ray: &RayCtx, ia: u32, ib: u32, w: bool) -> (f64, bool) {
         self.fallbacks.set(self.fallbacks.get() + 1);
         let (e, sign) = st.edge(ray, ia, ib);
         (e * self.inv_len, sign == w)
@@ -171,6 +179,7 @@ impl Prepared {
         shade: &S,
         front: &Front,
         ctx: &RayCtx,
+        (grid, i, j): (Option<&EntryGrid>, usize, usize),
         seed: &mut u32,
     ) -> (Segment, RayStats) {
         let fr = Frame2::new(ctx, self.max_abs);
@@ -179,18 +188,21 @@ impl Prepared {
         let mut t_min = f64::NEG_INFINITY;
         let mut exclude = u32::MAX;
         let mut first = true;
-        let mut hint = *seed;
-        'rays: while let Some((bt, bf, mut t_in, s_in, leaf)) =
-            self.bvh
-                .first_entry(self, tets, front, ctx, t_min - self.t_eps, exclude, hint)
-        {
+        // The first entry from the frame's grid (or the BVH, seeded with the previous ray's
+        // entry face), the re-entries from the BVH.
+        let mut found = match grid {
+            Some(g) => g.first_entry(self, tets, ctx, i, j),
+            None => self
+                .bvh
+                .first_entry(self, tets, front, ctx, t_min, exclude, *seed),
+        };
+        'rays: while let Some((bt, bf, mut t_in, s_in, leaf)) = found.take() {
             if first {
                 *seed = leaf;
             } else {
                 stats.reentries += 1;
             }
             first = false;
-            hint = u32::MAX;
             // The entry face's products in circulation order have the entering sign `w`.
             let w = self.bvh.entering_sign(leaf);
             let mut tet = bt as usize;
@@ -230,10 +242,15 @@ impl Prepared {
                         }
                     }
                 };
-                let (x, y) = ((k + 1) % 3, (k + 2) % 3);
-                // Weights of X, Y, D: |Y → D|, |D → X|, |X → Y| (carried).
-                let wt = [p[y].abs(), p[x].abs(), opp[k]];
-                let (lx, ly) = (lv[x], lv[y]);
+                // The exit face X Y D and the weights of X, Y, D: |Y → D|, |D → X|, |X → Y|
+                // (carried), spelled out per case so that nothing is indexed at run time.
+                let [la, lb, lc] = lv;
+                let [ia, ib, ic] = ids;
+                let (lx, ly, ix, iy, iz, wt) = match k {
+                    2 => (la, lb, ia, ib, ic, [p[1].abs(), p[0].abs(), opp[2]]),
+                    0 => (lb, lc, ib, ic, ia, [p[2].abs(), p[1].abs(), opp[0]]),
+                    _ => (lc, la, ic, ia, ib, [p[0].abs(), p[2].abs(), opp[1]]),
+                };
                 let sum = wt[0] + wt[1] + wt[2];
                 let wn = if sum > 0.0 && sum.is_finite() {
                     let r = 1.0 / sum;
@@ -252,7 +269,7 @@ impl Prepared {
                         break 'rays;
                     }
                 }
-                let fz = local_index(&g, ids[k]);
+                let fz = local_index(&g, iz);
                 let nb = if fz < 4 { self.next[tet][fz] } else { BOUNDARY };
                 if nb == BOUNDARY {
                     t_min = t_out;
@@ -263,7 +280,7 @@ impl Prepared {
                     };
                     break;
                 }
-                ids = [ids[x], ids[y], id];
+                ids = [ix, iy, id];
                 lv = [lx, ly, ld];
                 opp = wt;
                 tet = nb as usize / 4;
@@ -272,6 +289,15 @@ impl Prepared {
                 t_in = t_out;
                 e_in = e_out;
             }
+            found = self.bvh.first_entry(
+                self,
+                tets,
+                front,
+                ctx,
+                t_min - self.t_eps,
+                exclude,
+                u32::MAX,
+            );
         }
         if first && self.bvh.any_crossing(self, tets, ctx) {
             stats.missed += 1;

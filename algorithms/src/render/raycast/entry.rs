@@ -3,8 +3,9 @@
 //! box into square cells of [`CELL`] pixels, and a ray tests only its cell's faces whose box
 //! holds its pixel centre — with the same exact crossing test as the BVH, so it enters through
 //! the same face at the same depth (ties between faces at one depth aside, which the BVH
-//! orders by its traversal and the grid by face order). Re-entries beyond a depth, and the
-//! check that a ray which entered nowhere crosses no face, stay with the BVH.
+//! orders by its traversal and the grid by face order). Re-entries beyond a depth are found
+//! the same way; the check that a ray which entered nowhere crosses no face (in either
+//! direction, over all boundary faces) stays with the BVH.
 //!
 //! A ray's pixel centre is where every point of the ray projects ([`Camera::project`] inverts
 //! [`Camera::ray_at`] on the image plane), so a face the ray crosses has the centre in its
@@ -139,9 +140,11 @@ impl EntryGrid {
         })
     }
 
-    /// The nearest boundary face the ray of pixel `(i, j)` enters through: (tet, face, depth,
-    /// scalar, leaf index), as [`Bvh::first_entry`] with no depth bound, exclusion or seed.
+    /// The nearest boundary face the ray of pixel `(i, j)` enters through at depth ≥ `t_min`,
+    /// other than `exclude` (4·tet + face): (tet, face, depth, scalar, leaf index), as
+    /// [`Bvh::first_entry`] with no seed.
     #[inline]
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn first_entry(
         &self,
         st: &Prepared,
@@ -149,6 +152,8 @@ impl EntryGrid {
         ray: &RayCtx,
         i: usize,
         j: usize,
+        t_min: f64,
+        exclude: u32,
     ) -> Option<(u32, usize, f64, f64, u32)> {
         let c = (j / CELL).min(self.ny - 1) * self.nx + (i / CELL).min(self.nx - 1);
         let (px, py) = (i as f32 + 0.5, j as f32 + 0.5);
@@ -160,10 +165,13 @@ impl EntryGrid {
                 continue;
             }
             let bf = bvh.faces[it.leaf as usize];
+            if bf == exclude {
+                continue;
+            }
             let tri = FACE_VERTS[bf as usize % 4].map(|k| tets[bf as usize / 4][k]);
             if let Some((tt, s)) = st.cross_face(ray, tri, bvh.entering[it.leaf as usize]) {
                 // The BVH's rule (NaN depths never taken).
-                if tt >= f64::NEG_INFINITY && (tt < best_t || (best.is_none() && tt == best_t)) {
+                if tt >= t_min && (tt < best_t || (best.is_none() && tt == best_t)) {
                     best_t = tt;
                     best = Some((bf / 4, bf as usize % 4, tt, s, it.leaf));
                 }

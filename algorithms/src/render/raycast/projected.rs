@@ -168,7 +168,8 @@ fn local_index(g: &[u32; 4], v: u32) -> usize {
 
 impl Prepared {
     /// Casts one ray with the projected walk; returns the composited pixel and the ray's
-    /// counters. The entries (first and re-entries) are [`Bvh::first_entry`]'s, as in
+    /// counters. The entries (first and re-entries) come from the frame's [`EntryGrid`] when
+    /// there is one (the faces and depths of [`Bvh::first_entry`]), else from the BVH as in
     /// [`Prepared::cast`].
     ///
     /// [`Bvh::first_entry`]: super::bvh::Bvh::first_entry
@@ -188,14 +189,15 @@ impl Prepared {
         let mut t_min = f64::NEG_INFINITY;
         let mut exclude = u32::MAX;
         let mut first = true;
-        // The first entry from the frame's grid (or the BVH, seeded with the previous ray's
-        // entry face), the re-entries from the BVH.
-        let mut found = match grid {
-            Some(g) => g.first_entry(self, tets, ctx, i, j),
+        // Entries from the frame's grid (or the BVH, the first search seeded with the previous
+        // ray's entry face).
+        let entry = |t_min: f64, exclude: u32, seed: u32| match grid {
+            Some(g) => g.first_entry(self, tets, ctx, i, j, t_min, exclude),
             None => self
                 .bvh
-                .first_entry(self, tets, front, ctx, t_min, exclude, *seed),
+                .first_entry(self, tets, front, ctx, t_min, exclude, seed),
         };
+        let mut found = entry(t_min, exclude, *seed);
         'rays: while let Some((bt, bf, mut t_in, s_in, leaf)) = found.take() {
             if first {
                 *seed = leaf;
@@ -289,15 +291,7 @@ impl Prepared {
                 t_in = t_out;
                 e_in = e_out;
             }
-            found = self.bvh.first_entry(
-                self,
-                tets,
-                front,
-                ctx,
-                t_min - self.t_eps,
-                exclude,
-                u32::MAX,
-            );
+            found = entry(t_min - self.t_eps, exclude, u32::MAX);
         }
         if first && self.bvh.any_crossing(self, tets, ctx) {
             stats.missed += 1;

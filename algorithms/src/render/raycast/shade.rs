@@ -3,6 +3,9 @@
 //! of twice per segment; `partial` and `exact` take those values through their
 //! `segment_eval` (the same arithmetic as `Integrator::segment`, so the same bits), and the
 //! walk is compiled once per integrator kind instead of calling it through a `dyn` pointer.
+//! `partial` takes two shortcuts that change only last bits ([`RcPartial`]): the transfer
+//! function's pieces are found from a bucket table and evaluated with precomputed slopes, and a
+//! segment calls `expm1` once.
 
 use crate::optics::{Exact, Integrator, Partial, Segment};
 use crate::tf::TransferFunction;
@@ -18,7 +21,7 @@ pub(super) trait Shade: Sync {
 
 /// The integrator a ray caster was prepared with.
 pub(super) enum Shader {
-    Partial(Partial),
+    Partial(RcPartial),
     Exact(Exact),
     /// Any other integrator, through its trait (average, preint).
     Other(Box<dyn Integrator>),
@@ -28,7 +31,10 @@ impl Shader {
     pub(super) fn new(name: &str, tf: &TransferFunction) -> crate::error::Result<Shader> {
         let i = crate::optics::integrator(name, tf)?;
         Ok(match name {
-            "partial" => Shader::Partial(Partial::new(tf)),
+            "partial" => Shader::Partial(RcPartial {
+                tf: LinearTf::new(tf),
+                p: Partial::new(tf),
+            }),
             "exact" => Shader::Exact(Exact::new(tf)),
             _ => Shader::Other(i),
         })
@@ -43,11 +49,108 @@ pub(super) struct Eval {
     tau: f64,
 }
 
-impl Shade for Partial {
+/// `partial` as the ray caster runs it: [`Partial`]'s Ψ table, with the transfer function
+/// as a [`LinearTf`].
+pub(super) struct RcPartial {
+    p: Partial,
+    tf: LinearTf,
+}
+
+/// Number of buckets of [`LinearTf`]'s piece index.
+const BUCKETS: usize = 256;
+
+/// A piecewise-linear transfer function laid out for evaluation without a search or a
+/// division: per piece its start, its value there and its slope, and per bucket of
+/// `[s₀, s_last]` the piece that holds the previous bucket's start (so that rounding of the
+/// bucket can only leave the walk forward to go, one or two steps). The same function as
+/// [`TransferFunction::eval`] up to the rounding of `a + (s − s_a)·slope` against
+/// `a + (b − a)·((s − s_a)/(s_b − s_a))`.
+pub(super) struct LinearTf {
+    /// Point positions, then +∞.
+    s: Vec<f64>,
+    /// Per point: rgb and τ there; per piece k (from point k to k + 1): their slopes.
+    val: Vec<[f64; 4]>,
+    slope: Vec<[f64; 4]>,
+    bucket: Vec<u32>,
+    s0: f64,
+    inv_w: f64,
+}
+
+impl LinearTf {
+    fn new(tf: &TransferFunction) -> LinearTf {
+        let p = &tf.points;
+        let n = p.len();
+        let val: Vec<[f64; 4]> = p.iter().map(|q| [q.rgb[0], q.rgb[1], q.rgb[2], q.tau]).collect();
+        let slope: Vec<[f64; 4]> = (0..n)
+            .map(|k| {
+                if k + 1 < n && p[k + 1].s > p[k].s {
+                    let ds = p[k + 1].s - p[k].s;
+                    std::array::from_fn(|c| (val[k + 1][c] - val[k][c]) / ds)
+                } else {
+                    [0.0; 4]
+                }
+            })
+            .collect();
+        let mut s: Vec<f64> = p.iter().map(|q| q.s).collect();
+        s.push(f64::INFINITY);
+        let (s0, s1) = (p[0].s, p[n - 1].s);
+        let w = (s1 - s0) / BUCKETS as f64;
+        let inv_w = if w > 0.0 && w.is_finite() { 1.0 / w } else { 0.0 };
+        // The last point at or before the previous bucket's start.
+        let bucket = (0..BUCKETS)
+            .map(|b| {
+                let lo = s0 + (b.saturating_sub(1)) as f64 * w;
+                (0..n).rev().find(|&k| p[k].s <= lo).unwrap_or(0) as u32
+            })
+            .collect();
+        LinearTf {
+            s,
+            val,
+            slope,
+            bucket,
+            s0,
+            inv_w,
+        }
+    }
+
+    /// [`TransferFunction::eval`]: colour and τ at `s` (clamped at the ends; NaN is the first
+    /// point's).
+    #[inline(always)]
+    fn eval(&self, s: f64) -> ([f64; 3], f64) {
+        let n = self.val.len();
+        let last = n - 1;
+        let k = if !(s > self.s0) || n == 1 {
+            return self.point(0);
+        } else if s >= self.s[last] {
+            return self.point(last);
+        } else {
+            // s ∈ (s₀, s_last): the bucket is in range; walk forward to the piece of s.
+            let b = (((s - self.s0) * self.inv_w) as usize).min(BUCKETS - 1);
+            let mut k = self.bucket[b] as usize;
+            while s >= self.s[k + 1] {
+                k += 1;
+            }
+            k
+        };
+        let (v, m, d) = (&self.val[k], &self.slope[k], s - self.s[k]);
+        (
+            [v[0] + d * m[0], v[1] + d * m[1], v[2] + d * m[2]],
+            v[3] + d * m[3],
+        )
+    }
+
+    #[inline]
+    fn point(&self, k: usize) -> ([f64; 3], f64) {
+        let v = &self.val[k];
+        ([v[0], v[1], v[2]], v[3])
+    }
+}
+
+impl Shade for RcPartial {
     type End = Eval;
     #[inline(always)]
     fn end(&self, s: f64) -> Eval {
-        let (c, tau) = self.tf().eval(s);
+        let (c, tau) = self.tf.eval(s);
         Eval { s, c, tau }
     }
     #[inline(always)]
@@ -62,7 +165,7 @@ impl Shade for Partial {
         let (fa, fb) = (f.tau * l, b.tau * l);
         let alpha = -(-0.5 * (fa + fb)).exp_m1();
         let zeta = 1.0 - alpha;
-        let pmz = (self.table().lookup(fa, fb) - zeta).clamp(0.0, alpha);
+        let pmz = (self.p.table().lookup(fa, fb) - zeta).clamp(0.0, alpha);
         let (cf, cb) = (f.c, b.c);
         Segment {
             rgb: [

@@ -119,7 +119,7 @@ impl LinearTf {
     fn eval(&self, s: f64) -> ([f64; 3], f64) {
         let n = self.val.len();
         let last = n - 1;
-        let k = if !(s > self.s0) || n == 1 {
+        let k = if s.is_nan() || s <= self.s0 || n == 1 {
             return self.point(0);
         } else if s >= self.s[last] {
             return self.point(last);
@@ -216,7 +216,7 @@ pub(super) fn exp_neg(g: f64) -> f64 {
     const LN2_HI: f64 = 0.693_147_180_369_123_8; // 0x3FE62E42FEE00000
     const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
     const INV_LN2: f64 = std::f64::consts::LOG2_E;
-    if !(g < 708.0) {
+    if g.is_nan() || g >= 708.0 {
         // exp(−708) ≈ 3e-308; beyond it, and for +∞, the result is 0 to the pixel (NaN stays).
         return if g.is_nan() { g } else { 0.0 };
     }

@@ -472,7 +472,9 @@ impl PsiTable {
             } else {
                 g.clamp(0.0, 1.0) * m
             };
-            let i = (x.floor() as usize).min(n - 2);
+            // x ∈ [0, n − 1]: truncation is `floor` (the same bits), without its libm call on
+            // targets without SSE4.1's `roundsd`.
+            let i = (x as usize).min(n - 2);
             (i, x - i as f64)
         };
         let (i, ti) = coord(gf);

@@ -91,10 +91,10 @@ fn boundary_outward(mesh: &Mesh, pos: &[DVec3], bfs: &[u32]) -> Vec<bool> {
 pub(super) struct Bvh {
     nodes: Vec<BvhNode>,
     /// Boundary faces as 4·tet + face, in leaf order.
-    faces: Vec<u32>,
+    pub(super) faces: Vec<u32>,
     /// Per face in leaf order: the sign of the edge products of a ray entering the mesh through
     /// it (the opposite of the outward circulation's).
-    entering: Vec<bool>,
+    pub(super) entering: Vec<bool>,
 }
 
 
@@ -180,6 +180,13 @@ impl Bvh {
             faces,
             entering,
         }
+    }
+
+    /// The sign of the edge products (in [`FACE_VERTS`] circulation) of a ray entering through
+    /// the face at leaf index `leaf` (as [`Bvh::first_entry`] returns it).
+    #[inline]
+    pub(super) fn entering_sign(&self, leaf: u32) -> bool {
+        self.entering[leaf as usize]
     }
 
     /// Slab test: the parameter interval where the ray is inside the box, clipped to
@@ -332,7 +339,7 @@ impl Bvh {
 /// nodes with any such face below them.
 pub(super) struct Front {
     nodes: Vec<bool>,
-    faces: Vec<bool>,
+    pub(super) faces: Vec<bool>,
 }
 
 impl Bvh {

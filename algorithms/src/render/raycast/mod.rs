@@ -15,7 +15,9 @@
 //! which the depth and scalar are interpolated; the exit of one cell is the entry of the next.
 
 mod bvh;
+mod entry;
 mod predicate;
+mod projected;
 mod shade;
 mod walk;
 
@@ -80,6 +82,9 @@ pub struct RayCaster {
     name: &'static str,
     integrator_name: String,
     state: Option<Prepared>,
+    /// Whether the integrators other than `exact` walk with the projected walk (the default;
+    /// see `projected.rs`) rather than the reference's.
+    projected_walk: bool,
 }
 
 /// A vertex as the walk reads it: position (centred frame) and transfer-function coordinate.
@@ -116,7 +121,16 @@ impl RayCaster {
             name,
             integrator_name: integrator.to_string(),
             state: None,
+            projected_walk: true,
         }
+    }
+
+    /// Chooses the walk of the integrators other than `exact`: the projected walk (`true`, the
+    /// default) or the reference's (`false`; the same cells, decided by the same exact signs,
+    /// with the crossings interpolated in three dimensions). `exact` always walks the
+    /// reference's way. For the tests that hold the two walks together.
+    pub fn set_projected_walk(&mut self, on: bool) {
+        self.projected_walk = on;
     }
 }
 
@@ -263,9 +277,9 @@ impl RayCaster {
         let w = camera.width.max(1) as usize;
         let mut px = vec![[0.0f64; 4]; w * camera.height as usize];
         let stats = match &st.shader {
-            Shader::Partial(p) => st.tiles(mesh, camera, p, &mut px),
-            Shader::Exact(e) => st.tiles(mesh, camera, e, &mut px),
-            Shader::Other(i) => st.tiles(mesh, camera, i, &mut px),
+            Shader::Partial(p) => st.tiles(mesh, camera, p, self.projected_walk, &mut px),
+            Shader::Exact(e) => st.tiles(mesh, camera, e, false, &mut px),
+            Shader::Other(i) => st.tiles(mesh, camera, i, self.projected_walk, &mut px),
         };
         Ok((px, stats))
     }
@@ -283,11 +297,17 @@ impl Prepared {
         mesh: &Mesh,
         camera: &Camera,
         shade: &S,
+        projected: bool,
         px: &mut [[f64; 4]],
     ) -> RayStats {
         let w = camera.width.max(1) as usize;
         let tets = mesh.tets();
         let front = self.bvh.front(&self.verts, tets, camera);
+        let grid = if projected {
+            entry::EntryGrid::new(self, tets, &front, camera)
+        } else {
+            None
+        };
         px.par_chunks_mut(w * TILE)
             .enumerate()
             .map(|(b, band)| {
@@ -301,7 +321,12 @@ impl Prepared {
                         for i in i0..(i0 + TILE).min(w) {
                             let ray = camera.pixel_ray(i as u32, j as u32);
                             let ctx = RayCtx::new(&ray, camera, self.max_abs);
-                            let (seg, s) = self.cast(tets, shade, &front, &ctx, &mut seed);
+                            let (seg, s) = if projected {
+                                let first = (grid.as_ref(), i, j);
+                                self.cast_projected(tets, shade, &front, &ctx, first, &mut seed)
+                            } else {
+                                self.cast(tets, shade, &front, &ctx, &mut seed)
+                            };
                             rs += s;
                             band[dj * w + i] = [seg.rgb[0], seg.rgb[1], seg.rgb[2], seg.alpha];
                         }

@@ -19,7 +19,7 @@ pub(super) struct RayCtx {
     d_r: DVec3,
     d_u: DVec3,
     /// `q − o`, the column every orient3d of this ray shares, as orient3d computes it.
-    c: DVec3,
+    pub(super) c: DVec3,
     /// Static error bound of the f64 filter for this ray (see [`RayCtx::orient`]).
     bound: f64,
     /// Predicates the filter left to the exact orient3d.

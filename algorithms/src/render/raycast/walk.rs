@@ -73,7 +73,7 @@ impl Prepared {
     /// Products of the ray with the directed edge `a → b` (global vertex ids), consistent for
     /// every cell that has the edge.
     #[inline]
-    fn edge(&self, ray: &RayCtx, a: u32, b: u32) -> (f64, bool) {
+    pub(super) fn edge(&self, ray: &RayCtx, a: u32, b: u32) -> (f64, bool) {
         if a < b {
             ray.side(self.verts[a as usize].p, self.verts[b as usize].p)
         } else {

@@ -1,0 +1,182 @@
+//! The projected walk's first entries from a per-frame grid over the image: every boundary
+//! face a ray of the frame can enter through (the BVH's [`Front`]) is binned by its projected
+//! box into square cells of [`CELL`] pixels, and a ray tests only its cell's faces whose box
+//! holds its pixel centre — with the same exact crossing test as the BVH, so it enters through
+//! the same face at the same depth (ties between faces at one depth aside, which the BVH
+//! orders by its traversal and the grid by face order). Re-entries beyond a depth are found
+//! the same way; the check that a ray which entered nowhere crosses no face (in either
+//! direction, over all boundary faces) stays with the BVH.
+//!
+//! A ray's pixel centre is where every point of the ray projects ([`Camera::project`] inverts
+//! [`Camera::ray_at`] on the image plane), so a face the ray crosses has the centre in its
+//! projected triangle, up to the rounding of the projection (~1e-13 px); boxes are widened by
+//! [`PAD`] px to cover it.
+
+use rayon::prelude::*;
+
+use super::bvh::{Bvh, Front};
+use super::predicate::RayCtx;
+use super::Prepared;
+use crate::camera::{Camera, Projection};
+use crate::mesh::FACE_VERTS;
+
+/// Side of a grid cell in pixels.
+const CELL: usize = 8;
+/// Widening of the projected boxes in pixels (their rounding is ~1e-13 px, f32 storage ~1e-4).
+const PAD: f64 = 0.01;
+
+/// A face in a cell's list: its leaf index in the BVH and its projected box (pixels).
+#[derive(Clone, Copy)]
+struct Item {
+    leaf: u32,
+    x0: f32,
+    x1: f32,
+    y0: f32,
+    y1: f32,
+}
+
+pub(super) struct EntryGrid {
+    nx: usize,
+    ny: usize,
+    /// Cell c's items are `items[start[c]..start[c + 1]]`, in ascending leaf order.
+    start: Vec<u32>,
+    items: Vec<Item>,
+}
+
+impl EntryGrid {
+    /// The grid of `cam`'s frame, or `None` where the projection cannot be trusted (a
+    /// perspective eye with mesh behind it: `front` then keeps every face and so does the BVH).
+    pub(super) fn new(
+        st: &Prepared,
+        tets: &[[u32; 4]],
+        front: &Front,
+        cam: &Camera,
+    ) -> Option<EntryGrid> {
+        let (w, h) = (cam.width.max(1) as usize, cam.height.max(1) as usize);
+        let bvh: &Bvh = &st.bvh;
+        if matches!(cam.projection, Projection::Persp) {
+            let eye = cam.eye();
+            let ok = st
+                .verts
+                .iter()
+                .all(|v| (v.p - eye).dot(cam.forward) > 1e-9 * cam.radius);
+            if !ok {
+                return None;
+            }
+        }
+        let (nx, ny) = (w.div_ceil(CELL), h.div_ceil(CELL));
+        // Each enterable face's padded box in pixels, or None off the image.
+        let boxes: Vec<Option<Item>> = (0..bvh.faces.len())
+            .into_par_iter()
+            .map(|i| {
+                if !front.faces[i] {
+                    return None;
+                }
+                let bf = bvh.faces[i] as usize;
+                let p = FACE_VERTS[bf % 4].map(|k| cam.project(st.verts[tets[bf / 4][k] as usize].p));
+                let x0 = p[0].0.min(p[1].0).min(p[2].0) - PAD;
+                let x1 = p[0].0.max(p[1].0).max(p[2].0) + PAD;
+                let y0 = p[0].1.min(p[1].1).min(p[2].1) - PAD;
+                let y1 = p[0].1.max(p[1].1).max(p[2].1) + PAD;
+                // A NaN box (never for finite vertices) is kept whole.
+                let (x0, x1, y0, y1) = if x0.is_nan() || x1.is_nan() || y0.is_nan() || y1.is_nan() {
+                    (f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY)
+                } else {
+                    (x0, x1, y0, y1)
+                };
+                if x1 < 0.0 || y1 < 0.0 || x0 > w as f64 || y0 > h as f64 {
+                    return None;
+                }
+                // f32 rounded outwards by the padding's margin (|x| ≤ a few thousand px).
+                Some(Item {
+                    leaf: i as u32,
+                    x0: x0.max(-1.0) as f32,
+                    x1: x1.min(w as f64 + 1.0) as f32,
+                    y0: y0.max(-1.0) as f32,
+                    y1: y1.min(h as f64 + 1.0) as f32,
+                })
+            })
+            .collect();
+        let range = |it: &Item| {
+            let c = |v: f32, n: usize| ((v.max(0.0) as usize) / CELL).min(n - 1);
+            (c(it.x0, nx), c(it.x1, nx), c(it.y0, ny), c(it.y1, ny))
+        };
+        let mut start = vec![0u32; nx * ny + 1];
+        for it in boxes.iter().flatten() {
+            let (cx0, cx1, cy0, cy1) = range(it);
+            for cy in cy0..=cy1 {
+                for cx in cx0..=cx1 {
+                    start[cy * nx + cx + 1] += 1;
+                }
+            }
+        }
+        for c in 0..nx * ny {
+            start[c + 1] += start[c];
+        }
+        let mut fill: Vec<u32> = start[..nx * ny].to_vec();
+        let blank = Item {
+            leaf: 0,
+            x0: 0.0,
+            x1: -1.0,
+            y0: 0.0,
+            y1: -1.0,
+        };
+        let mut items = vec![blank; start[nx * ny] as usize];
+        for it in boxes.iter().flatten() {
+            let (cx0, cx1, cy0, cy1) = range(it);
+            for cy in cy0..=cy1 {
+                for cx in cx0..=cx1 {
+                    let f = &mut fill[cy * nx + cx];
+                    items[*f as usize] = *it;
+                    *f += 1;
+                }
+            }
+        }
+        Some(EntryGrid {
+            nx,
+            ny,
+            start,
+            items,
+        })
+    }
+
+    /// The nearest boundary face the ray of pixel `(i, j)` enters through at depth ≥ `t_min`,
+    /// other than `exclude` (4·tet + face): (tet, face, depth, scalar, leaf index), as
+    /// [`Bvh::first_entry`] with no seed.
+    #[inline]
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn first_entry(
+        &self,
+        st: &Prepared,
+        tets: &[[u32; 4]],
+        ray: &RayCtx,
+        i: usize,
+        j: usize,
+        t_min: f64,
+        exclude: u32,
+    ) -> Option<(u32, usize, f64, f64, u32)> {
+        let c = (j / CELL).min(self.ny - 1) * self.nx + (i / CELL).min(self.nx - 1);
+        let (px, py) = (i as f32 + 0.5, j as f32 + 0.5);
+        let bvh = &st.bvh;
+        let mut best: Option<(u32, usize, f64, f64, u32)> = None;
+        let mut best_t = f64::INFINITY;
+        for it in &self.items[self.start[c] as usize..self.start[c + 1] as usize] {
+            if px < it.x0 || px > it.x1 || py < it.y0 || py > it.y1 {
+                continue;
+            }
+            let bf = bvh.faces[it.leaf as usize];
+            if bf == exclude {
+                continue;
+            }
+            let tri = FACE_VERTS[bf as usize % 4].map(|k| tets[bf as usize / 4][k]);
+            if let Some((tt, s)) = st.cross_face(ray, tri, bvh.entering[it.leaf as usize]) {
+                // The BVH's rule (NaN depths never taken).
+                if tt >= t_min && (tt < best_t || (best.is_none() && tt == best_t)) {
+                    best_t = tt;
+                    best = Some((bf / 4, bf as usize % 4, tt, s, it.leaf));
+                }
+            }
+        }
+        best
+    }
+}

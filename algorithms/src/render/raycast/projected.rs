@@ -1,0 +1,319 @@
+//! The projected walk: the cell walk of `raycast` with every integrator but `exact`.
+//!
+//! The ray is the origin of a 2-D frame `(f1, f2)` perpendicular to it (`f1 × f2 = d̂`), and
+//! each vertex of a cell is transformed into that frame once, when the walk first meets it
+//! (the three vertices of the face it came through carry theirs). The Plücker product of the
+//! ray with a directed edge `a → b` is then the 2-D cross product `a.x·b.y − a.y·b.x`
+//! (Binet–Cauchy: `(a × b)·(f1 × f2)`), two products instead of orient3d's nine.
+//!
+//! **Decisions are the exact ones.** A product is accepted when its magnitude exceeds a static
+//! per-ray bound of its rounding error *against the exact orient3d* of the three-dimensional
+//! vertices ([`Frame2::new`]); below the bound the walk asks the exact predicate of
+//! [`Prepared::edge`] (Shewchuk's orient3d with the Simulation-of-Simplicity tie rule), counted
+//! in `filter_fallbacks`. So every sign is the sign the `reference` walk decides for the same
+//! edge, neighbouring cells agree on every shared edge, and the walk is watertight for the same
+//! reason the reference is.
+//!
+//! **The exit face from the apex.** The ray enters a cell through triangle `(A, B, C)` whose
+//! directed edge products `A→B, B→C, C→A` all have one sign `w` (the entry's winding as the
+//! ray sees it); `D` is the cell's fourth vertex. The ray leaves through the face `X Y D`
+//! (`X → Y` an edge of the entry face in that order) whose other edges `Y → D` and `D → X` have
+//! the sign `w` too: with `b_V` = "`V → D` has sign `w`", through `ABD` iff `b_B ∧ ¬b_A`, `BCD`
+//! iff `b_C ∧ ¬b_B`, `CAD` iff `b_A ∧ ¬b_C` — exactly one of them for consistent signs. The new
+//! entry triangle is `(X, Y, D)`, of winding `w` again, so no orientation of the cell and no
+//! face-vertex matching is needed: only the local index of the dropped vertex, for the link.
+//!
+//! **The crossing** is interpolated with the barycentric weights `|Y→D|, |D→X|, |X→Y|` (the last
+//! carried) of the per-vertex depth along the ray and scalar.
+
+use std::cell::Cell;
+
+use glam::DVec3;
+
+use super::bvh::Front;
+use super::entry::EntryGrid;
+use super::predicate::RayCtx;
+use super::shade::Shade;
+use super::{Prepared, RayStats, Vert, TERMINATE_T};
+use crate::mesh::{BOUNDARY, FACE_VERTS};
+use crate::optics::{composite_under, Segment};
+
+/// The unit roundoff, 2⁻⁵³.
+const U: f64 = f64::EPSILON / 2.0;
+
+/// A ray's 2-D frame and the static error bound of its products.
+pub(super) struct Frame2 {
+    o: DVec3,
+    d: DVec3,
+    f1: DVec3,
+    f2: DVec3,
+    /// A computed product whose magnitude exceeds this has the exact orient3d's sign.
+    bound: f64,
+    /// `1 / |c|`: orient3d's value to the frame's scale.
+    inv_len: f64,
+    /// Products the bound could not decide, left to the exact predicate.
+    fallbacks: Cell<u64>,
+}
+
+/// A vertex in a ray's frame: `(p − o)·f1`, `(p − o)·f2`, the depth `(p − o)·d` and the
+/// transfer-function coordinate `s`.
+#[derive(Clone, Copy)]
+struct Local {
+    x: f64,
+    y: f64,
+    z: f64,
+    s: f64,
+}
+
+impl Frame2 {
+    /// The frame of `ray`; `max_abs` bounds every vertex coordinate.
+    ///
+    /// Error bound. Let `A = max_abs + |o|∞` bound `|p_k − o_k|`, `D = q − o` the exact direction
+    /// orient3d uses (`c = fl(q − o)` within `u·|D|` of it), and `x̃ = fl((p ⊖ o)·f1)`: its
+    /// error against the real `(p − o)·f1` is at most `γ₄·√3·A·|f1| ≤ 6.93·u·A` (one subtraction,
+    /// three products, two sums), and `|x̃| ≤ √3·A`. The computed cross product of two such
+    /// vertices then differs from the real `(a × b)·(f1 × f2)` by at most
+    /// `4·(6.93u·A)(√3·A) + 2u·(2·3A²) ≤ 60u·A²`, and that from `(a × b)·D̂` — whose sign is
+    /// orient3d's — by at most `|a||b|·η ≤ 3A²·η`, `η = |f1 × f2 − D̂|`. `η` is the measured
+    /// `|fl(f1 × f2) − ĉ|` plus the rounding of that measurement, of `ĉ` and of `c` against `D`
+    /// (≤ 16u together). The bound is twice the sum, which also covers the rounding of the
+    /// bound's own arithmetic.
+    pub(super) fn new(ray: &RayCtx, max_abs: f64) -> Frame2 {
+        let c = ray.c;
+        let len = c.length();
+        let ch = if len > 0.0 { c / len } else { DVec3::Z };
+        // f1 from the axis least aligned with the ray, f2 = ĉ × f1 (so f1 × f2 = ĉ).
+        let ax = ch.abs();
+        let axis = if ax.x <= ax.y && ax.x <= ax.z {
+            DVec3::X
+        } else if ax.y <= ax.z {
+            DVec3::Y
+        } else {
+            DVec3::Z
+        };
+        let f1 = ch.cross(axis).normalize();
+        let f2 = ch.cross(f1);
+        let eta = (f1.cross(f2) - ch).length() * 1.01 + 16.0 * U;
+        let a = max_abs + ray.o.abs().max_element();
+        let bound = 2.0 * a * a * (60.0 * U + 3.0 * eta);
+        Frame2 {
+            o: ray.o,
+            d: ray.d,
+            f1,
+            f2,
+            // A ray without a direction (never made by the camera) decides nothing itself.
+            bound: if len > 0.0 && bound.is_finite() {
+                bound
+            } else {
+                f64::INFINITY
+            },
+            inv_len: if len > 0.0 { 1.0 / len } else { 0.0 },
+            fallbacks: Cell::new(0),
+        }
+    }
+
+    #[inline(always)]
+    fn local(&self, v: &Vert) -> Local {
+        let a = v.p - self.o;
+        Local {
+            x: a.dot(self.f1),
+            y: a.dot(self.f2),
+            z: a.dot(self.d),
+            s: v.s,
+        }
+    }
+
+    /// The product of the directed edge `a → b` (global ids `ia`, `ib`) and whether its sign
+    /// is `w`: the 2-D product when the bound decides, else the exact predicate's sign and
+    /// value (orient3d's, `|c|` times the 2-D product: so an edge the ray meets weighs exactly
+    /// 0, as in the reference walk, where the 2-D product would be a rounding residue).
+    #[inline(always)]
+    fn side(
+        &self,
+        st: &Prepared,
+        ray: &RayCtx,
+        (ia, a): (u32, &Local),
+        (ib, b): (u32, &Local),
+        w: bool,
+    ) -> (f64, bool) {
+        let v = a.x * b.y - a.y * b.x;
+        if v > self.bound {
+            return (v, w);
+        }
+        if v < -self.bound {
+            return (v, !w);
+        }
+        self.undecided(st, ray, ia, ib, w)
+    }
+
+    /// [`Frame2::side`] below the bound: the exact predicate, counted.
+    #[cold]
+    #[inline(never)]
+    fn undecided(&self, st: &Prepared, ray: &RayCtx, ia: u32, ib: u32, w: bool) -> (f64, bool) {
+        self.fallbacks.set(self.fallbacks.get() + 1);
+        let (e, sign) = st.edge(ray, ia, ib);
+        (e * self.inv_len, sign == w)
+    }
+}
+
+/// Local index in `g` of vertex `v` (4 when absent).
+#[inline(always)]
+fn local_index(g: &[u32; 4], v: u32) -> usize {
+    let m = (g[0] == v) as u32
+        | ((g[1] == v) as u32) << 1
+        | ((g[2] == v) as u32) << 2
+        | ((g[3] == v) as u32) << 3;
+    m.trailing_zeros().min(4) as usize
+}
+
+impl Prepared {
+    /// Casts one ray with the projected walk; returns the composited pixel and the ray's
+    /// counters. The entries (first and re-entries) come from the frame's [`EntryGrid`] when
+    /// there is one (the faces and depths of [`Bvh::first_entry`]), else from the BVH as in
+    /// [`Prepared::cast`].
+    ///
+    /// [`Bvh::first_entry`]: super::bvh::Bvh::first_entry
+    #[inline(always)]
+    pub(super) fn cast_projected<S: Shade>(
+        &self,
+        tets: &[[u32; 4]],
+        shade: &S,
+        front: &Front,
+        ctx: &RayCtx,
+        (grid, i, j): (Option<&EntryGrid>, usize, usize),
+        seed: &mut u32,
+    ) -> (Segment, RayStats) {
+        let fr = Frame2::new(ctx, self.max_abs);
+        let mut acc = Segment::default();
+        let mut stats = RayStats::default();
+        let mut t_min = f64::NEG_INFINITY;
+        let mut exclude = u32::MAX;
+        let mut first = true;
+        // Entries from the frame's grid (or the BVH, the first search seeded with the previous
+        // ray's entry face).
+        let entry = |t_min: f64, exclude: u32, seed: u32| match grid {
+            Some(g) => g.first_entry(self, tets, ctx, i, j, t_min, exclude),
+            None => self
+                .bvh
+                .first_entry(self, tets, front, ctx, t_min, exclude, seed),
+        };
+        let mut found = entry(t_min, exclude, *seed);
+        'rays: while let Some((bt, bf, mut t_in, s_in, leaf)) = found.take() {
+            if first {
+                *seed = leaf;
+            } else {
+                stats.reentries += 1;
+            }
+            first = false;
+            // The entry face's products in circulation order have the entering sign `w`.
+            let w = self.bvh.entering_sign(leaf);
+            let mut tet = bt as usize;
+            let mut g = tets[tet];
+            let mut fin = bf;
+            let mut ids = FACE_VERTS[bf].map(|k| g[k]);
+            let mut lv = ids.map(|v| fr.local(&self.verts[v as usize]));
+            // |product| of the edge opposite each vertex of the entry triangle.
+            let mut opp: [f64; 3] = std::array::from_fn(|k| {
+                let (a, b) = ((k + 1) % 3, (k + 2) % 3);
+                fr.side(self, ctx, (ids[a], &lv[a]), (ids[b], &lv[b]), w).0.abs()
+            });
+            let mut e_in = shade.end(s_in);
+            loop {
+                stats.steps += 1;
+                if stats.steps as usize > self.max_steps {
+                    stats.lost += 1;
+                    break 'rays;
+                }
+                let id = g[fin];
+                let ld = fr.local(&self.verts[id as usize]);
+                let (pa, ba) = fr.side(self, ctx, (ids[0], &lv[0]), (id, &ld), w);
+                let (pb, bb) = fr.side(self, ctx, (ids[1], &lv[1]), (id, &ld), w);
+                // k: the entry vertex the exit face drops (ABD drops C, BCD A, CAD B).
+                let mut p = [pa, pb, 0.0];
+                let k = if !ba && bb {
+                    2
+                } else {
+                    let (pc, bc) = fr.side(self, ctx, (ids[2], &lv[2]), (id, &ld), w);
+                    p[2] = pc;
+                    match (ba, bb, bc) {
+                        (_, false, true) => 0,
+                        (true, _, false) => 1,
+                        _ => {
+                            stats.fallbacks += 1;
+                            closest_face(p, w)
+                        }
+                    }
+                };
+                // The exit face X Y D and the weights of X, Y, D: |Y → D|, |D → X|, |X → Y|
+                // (carried), spelled out per case so that nothing is indexed at run time.
+                let [la, lb, lc] = lv;
+                let [ia, ib, ic] = ids;
+                let (lx, ly, ix, iy, iz, wt) = match k {
+                    2 => (la, lb, ia, ib, ic, [p[1].abs(), p[0].abs(), opp[2]]),
+                    0 => (lb, lc, ib, ic, ia, [p[2].abs(), p[1].abs(), opp[0]]),
+                    _ => (lc, la, ic, ia, ib, [p[0].abs(), p[2].abs(), opp[1]]),
+                };
+                let sum = wt[0] + wt[1] + wt[2];
+                let wn = if sum > 0.0 && sum.is_finite() {
+                    let r = 1.0 / sum;
+                    wt.map(|v| v * r)
+                } else {
+                    [1.0 / 3.0; 3]
+                };
+                let tt = wn[0] * lx.z + wn[1] * ly.z + wn[2] * ld.z;
+                let s = wn[0] * lx.s + wn[1] * ly.s + wn[2] * ld.s;
+                let t_out = tt.max(t_in);
+                let l = (t_out - t_in) * self.inv_l;
+                let e_out = shade.end(s);
+                if l > 0.0 {
+                    composite_under(&mut acc, shade.segment(&e_in, &e_out, l));
+                    if 1.0 - acc.alpha < TERMINATE_T {
+                        break 'rays;
+                    }
+                }
+                let fz = local_index(&g, iz);
+                let nb = if fz < 4 { self.next[tet][fz] } else { BOUNDARY };
+                if nb == BOUNDARY {
+                    t_min = t_out;
+                    exclude = if fz < 4 {
+                        (4 * tet + fz) as u32
+                    } else {
+                        u32::MAX
+                    };
+                    break;
+                }
+                ids = [ix, iy, id];
+                lv = [lx, ly, ld];
+                opp = wt;
+                tet = nb as usize / 4;
+                fin = nb as usize % 4;
+                g = tets[tet];
+                t_in = t_out;
+                e_in = e_out;
+            }
+            found = entry(t_min - self.t_eps, exclude, u32::MAX);
+        }
+        if first && self.bvh.any_crossing(self, tets, ctx) {
+            stats.missed += 1;
+        }
+        stats.filter_fallbacks = ctx.fallbacks.get() + fr.fallbacks.get();
+        (acc, stats)
+    }
+}
+
+/// No exit face is consistent (a flat cell, or signs from a degenerate tie): the face whose
+/// two apex products are closest to the exit's signs. `p[i]` is the product of entry vertex
+/// `i` → apex; returns the entry vertex to drop.
+#[cold]
+fn closest_face(p: [f64; 3], w: bool) -> usize {
+    let q = if w { p } else { p.map(|v| -v) };
+    // Dropping k keeps X = k+1, Y = k+2, which want Y → D of sign w and X → D of sign !w.
+    let score = |k: usize| q[(k + 2) % 3].min(-q[(k + 1) % 3]);
+    let mut best = 0;
+    for k in 1..3 {
+        if score(k) > score(best) {
+            best = k;
+        }
+    }
+    best
+}

@@ -8,7 +8,7 @@
 //! number of boundary crossings, and those of its four low-res samples), the worst pixels for
 //! B, and writes a map: red where B is worse, green where it is better, over the dimmed image.
 //! `PROBE="i,j;..."` prints each pixel's layers, its samples and both results;
-//! `TIMES=n` times each method n more times (minimum of the depth and filter stages).
+//! `MAXD=x` fixes the map's scale; `TIMES=n` times each method n more times (minimum of the depth and filter stages).
 use algorithms::camera::{Camera, Projection};
 use algorithms::image::Image;
 use algorithms::jbu::{cube_views, low_camera, BoundaryRaster, Method, Params, Upsampler};
@@ -50,6 +50,15 @@ fn main() {
     let reference = r.render(&mesh, &cam).unwrap().image;
     let lc = low_camera(&mesh, &cam, low, low);
     let li = r.render(&mesh, &lc).unwrap().image;
+    if let Some(n) = std::env::var("TIMES").ok().and_then(|v| v.parse::<usize>().ok()) {
+        let mut best = f64::INFINITY;
+        for _ in 0..n {
+            let t0 = std::time::Instant::now();
+            r.render(&mesh, &lc).unwrap();
+            best = best.min(t0.elapsed().as_secs_f64() * 1e3);
+        }
+        println!("low-res render ({low}²): min of {n}: {best:.1} ms");
+    }
     let mut out = vec![];
     let times: usize = std::env::var("TIMES")
         .ok()
@@ -174,7 +183,12 @@ fn main() {
             .collect::<Vec<_>>()
             .join(";")
     );
-    let mx = d.iter().fold(0.0f64, |m, x| m.max(x.abs())).max(1e-30);
+    // The map's scale: `MAXD` (to compare two maps), else this map's largest difference.
+    let mx = std::env::var("MAXD")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| d.iter().fold(0.0f64, |m, x| m.max(x.abs())).max(1e-30));
+    println!("map scale (largest |B-A| per pixel): {mx:.3e}");
     let mut img = Image::new(full, full);
     for j in 0..full {
         for i in 0..full {

@@ -17,7 +17,9 @@
 //!   rasteriser and ~6 % less CPU per process (docs/performance.md, third pass);
 //! - **batched shading**: fragments are queued (pixel, `s_f`, `s_b`, `l`) and a batch is shaded
 //!   at once ([`FastIntegrator::shade_batch`]) and then composited in queue order, which is the
-//!   order a per-fragment loop would composite in, so the image is the same.
+//!   order a per-fragment loop would composite in, so the image is the same. A batch whose tets
+//!   all lie in one linear piece of the transfer function carries it ([`ShadeBatch::piece`]),
+//!   and `partial` then shades it without table look-ups (docs/performance.md, fourth pass).
 
 use crate::optics_f32::{FastIntegrator, ShadeBatch, BATCH, NO_PIECE};
 use crate::pt::{fan_bits, wedge, TetRaster, MAX_FAN, TABLE};

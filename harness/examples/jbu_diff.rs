@@ -50,7 +50,10 @@ fn main() {
     let reference = r.render(&mesh, &cam).unwrap().image;
     let lc = low_camera(&mesh, &cam, low, low);
     let li = r.render(&mesh, &lc).unwrap().image;
-    if let Some(n) = std::env::var("TIMES").ok().and_then(|v| v.parse::<usize>().ok()) {
+    if let Some(n) = std::env::var("TIMES")
+        .ok()
+        .and_then(|v| v.parse::<usize>().ok())
+    {
         let mut best = f64::INFINITY;
         for _ in 0..n {
             let t0 = std::time::Instant::now();

@@ -30,34 +30,7 @@ pub struct TfTable {
     scale: f32,
     max: f32,
     data: Vec<[f32; 4]>,
-    pieces: Vec<TfPiece>,
 }
-
-/// One linear piece of the table: where every table interval met lies inside one segment of the
-/// piecewise-linear TF (or beyond its ends, where it is constant), the table's interpolation is
-/// that segment's line `c0 + c1·s` up to f32 rounding, so a tet whose scalar range lies in
-/// `[s0, s1]` needs no table look-up ([`TfTable::piece_of`], [`ShadeBatch::piece`]).
-#[derive(Clone, Copy, Debug)]
-struct TfPiece {
-    s0: f32,
-    s1: f32,
-    c0: [f32; 4],
-    c1: [f32; 4],
-}
-
-/// `[r, g, b, τ]` of piece `p` at `s` (τ ≥ 0 also where rounding puts `s` a hair outside).
-#[inline(always)]
-fn piece_eval(p: &TfPiece, s: f32) -> [f32; 4] {
-    [
-        p.c0[0] + p.c1[0] * s,
-        p.c0[1] + p.c1[1] * s,
-        p.c0[2] + p.c1[2] * s,
-        (p.c0[3] + p.c1[3] * s).max(0.0),
-    ]
-}
-
-/// [`ShadeBatch::piece`] of a batch whose fragments need the table.
-pub const NO_PIECE: u32 = u32::MAX;
 
 impl TfTable {
     pub fn new(tf: &TransferFunction, n: usize) -> TfTable {
@@ -87,19 +60,7 @@ impl TfTable {
             scale: ((n - 1) as f64 / (hi - lo)) as f32,
             max: (n - 1) as f32,
             data,
-            pieces: pieces(tf, lo, hi, n),
         }
-    }
-
-    /// The piece that holds all of `[s_min, s_max]`, or [`NO_PIECE`] (also for NaN).
-    #[inline]
-    pub fn piece_of(&self, s_min: f32, s_max: f32) -> u32 {
-        for (k, p) in self.pieces.iter().enumerate() {
-            if p.s0 <= s_min && s_max <= p.s1 {
-                return k as u32;
-            }
-        }
-        NO_PIECE
     }
 
     /// The samples, `[r, g, b, τ]` at `lo + i / scale` (for upload to the GPU).
@@ -126,59 +87,6 @@ impl TfTable {
             a[3] + (b[3] - a[3]) * t,
         ]
     }
-}
-
-/// The table's linear pieces (see [`TfPiece`]): per TF segment (and the constant ends) the
-/// range between the first and the last table sample inside it, so that every table interval
-/// met there has both ends on the segment's line; pieces narrower than one interval are left
-/// out, and so are those whose extinction reaches the table's cap.
-fn pieces(tf: &TransferFunction, lo: f64, hi: f64, n: usize) -> Vec<TfPiece> {
-    let p = &tf.points;
-    let step = (hi - lo) / (n - 1) as f64;
-    // The sample positions: the first at or after `a`, the last at or before `b`.
-    let first = |a: f64| lo + ((a - lo) / step).ceil().max(0.0) * step;
-    let last = |b: f64| lo + ((b - lo) / step).floor().min((n - 1) as f64) * step;
-    let mut out = Vec::new();
-    let mut push = |s0: f32, s1: f32, c0: [f64; 4], c1: [f64; 4]| {
-        if s0 < s1
-            && c0
-                .iter()
-                .chain(&c1)
-                .all(|v| v.is_finite() && v.abs() < 1e20)
-        {
-            out.push(TfPiece {
-                s0,
-                s1,
-                c0: c0.map(|v| v as f32),
-                c1: c1.map(|v| v as f32),
-            });
-        }
-    };
-    let flat = |q: &crate::tf::TfPoint| [q.rgb[0], q.rgb[1], q.rgb[2], q.tau];
-    // Constant below the first point and above the last (the table clamps beyond its domain).
-    push(
-        f32::NEG_INFINITY,
-        last(p[0].s) as f32,
-        flat(&p[0]),
-        [0.0; 4],
-    );
-    for w in p.windows(2) {
-        let (a, b) = (&w[0], &w[1]);
-        if b.s - a.s < 2.0 * step {
-            continue;
-        }
-        let (fa, fb) = (flat(a), flat(b));
-        let c1: [f64; 4] = std::array::from_fn(|c| (fb[c] - fa[c]) / (b.s - a.s));
-        let c0: [f64; 4] = std::array::from_fn(|c| fa[c] - c1[c] * a.s);
-        push(first(a.s) as f32, last(b.s) as f32, c0, c1);
-    }
-    push(
-        first(p[p.len() - 1].s) as f32,
-        f32::INFINITY,
-        flat(&p[p.len() - 1]),
-        [0.0; 4],
-    );
-    out
 }
 
 /// The largest extinction the f32 table holds.
@@ -238,42 +146,6 @@ impl FastIntegrator {
         })
     }
 
-    /// The linear piece of the transfer function that holds all of `[s_min, s_max]`, for
-    /// [`ShadeBatch::piece`]; [`NO_PIECE`] where there is none or the integrator has no such
-    /// path (`average`, `preint`).
-    #[inline]
-    pub fn piece_of(&self, s_min: f32, s_max: f32) -> u32 {
-        match self {
-            FastIntegrator::Partial(tf, _) => tf.piece_of(s_min, s_max),
-            _ => NO_PIECE,
-        }
-    }
-
-    /// [`FastIntegrator::segment`] with the transfer function taken from its linear piece
-    /// `piece` (not [`NO_PIECE`]; `partial` only, the others ignore it) instead of the table:
-    /// the definition of a batch with [`ShadeBatch::piece`] set.
-    #[inline(always)]
-    pub fn segment_piece(&self, piece: u32, sf: f32, sb: f32, l: f32) -> [f32; 4] {
-        let FastIntegrator::Partial(tf, psi) = self else {
-            return self.segment(sf, sb, l);
-        };
-        if !(sf.is_finite() && sb.is_finite() && l > 0.0) {
-            return [0.0; 4];
-        }
-        let p = &tf.pieces[piece as usize];
-        let (cf, cb) = (piece_eval(p, sf), piece_eval(p, sb));
-        let (fa, fb) = (tau_len(cf[3], l), tau_len(cb[3], l));
-        let zeta = exp_neg(0.5 * (fa + fb));
-        let alpha = 1.0 - zeta;
-        let pmz = (psi_lookup(psi, fa, fb) - zeta).clamp(0.0, alpha);
-        [
-            cf[0] * alpha + (cb[0] - cf[0]) * pmz,
-            cf[1] * alpha + (cb[1] - cf[1]) * pmz,
-            cf[2] * alpha + (cb[2] - cf[2]) * pmz,
-            alpha,
-        ]
-    }
-
     /// Premultiplied `[r, g, b, α]` of one segment (same contract as
     /// [`crate::optics::Integrator::segment`]: `l ≤ 0`, NaN or non-finite ends give 0).
     #[inline(always)]
@@ -313,9 +185,6 @@ pub const BATCH: usize = 256;
 #[derive(Clone, Debug)]
 pub struct ShadeBatch {
     pub len: usize,
-    /// The transfer function's linear piece that holds every segment's ends
-    /// ([`FastIntegrator::piece_of`]), or [`NO_PIECE`]: then the table is looked up.
-    pub piece: u32,
     pub sf: [f32; BATCH],
     pub sb: [f32; BATCH],
     pub l: [f32; BATCH],
@@ -326,7 +195,6 @@ impl Default for ShadeBatch {
     fn default() -> ShadeBatch {
         ShadeBatch {
             len: 0,
-            piece: NO_PIECE,
             sf: [0.0; BATCH],
             sb: [0.0; BATCH],
             l: [0.0; BATCH],
@@ -340,11 +208,7 @@ impl FastIntegrator {
     /// segment.
     pub fn shade_batch_scalar(&self, b: &mut ShadeBatch) {
         for k in 0..b.len.min(BATCH) {
-            let o = if b.piece == NO_PIECE {
-                self.segment(b.sf[k], b.sb[k], b.l[k])
-            } else {
-                self.segment_piece(b.piece, b.sf[k], b.sb[k], b.l[k])
-            };
+            let o = self.segment(b.sf[k], b.sb[k], b.l[k]);
             for (c, v) in o.into_iter().enumerate() {
                 b.out[c][k] = v;
             }
@@ -448,142 +312,40 @@ fn average_lanes(tf: &TfTable, b: &mut ShadeBatch) {
 fn partial_lanes(tf: &TfTable, psi: &PsiTable, b: &mut ShadeBatch) {
     // What the unchecked loads rely on.
     assert!(tf.data.len() >= 2 && psi.size() >= 2 && psi.data().len() >= psi.size().pow(2));
-    let ShadeBatch {
-        sf,
-        sb,
-        l,
-        out,
-        piece,
-        ..
-    } = b;
+    let ShadeBatch { sf, sb, l, out, .. } = b;
     let mut ok = [false; BATCH];
     let mut cf = [[0.0f32; BATCH]; 3];
     let mut dc = [[0.0f32; BATCH]; 3];
     let (mut fa, mut fb) = ([0.0f32; BATCH], [0.0f32; BATCH]);
-    // 1. Validity and the transfer function at both ends: from the batch's linear piece
-    // (arithmetic only) where it has one, else by table look-ups.
-    if let Some(p) = tf.pieces.get(*piece as usize) {
-        for k in 0..BATCH {
-            let (f, bk, lk) = (sf[k], sb[k], l[k]);
-            let valid = finite(f) && finite(bk) && lk > 0.0;
-            let (f, bk, lk) = if valid { (f, bk, lk) } else { (0.0, 0.0, 0.0) };
-            let (a, c) = (piece_eval(p, f), piece_eval(p, bk));
-            for ch in 0..3 {
-                cf[ch][k] = a[ch];
-                dc[ch][k] = c[ch] - a[ch];
-            }
-            fa[k] = tau_len(a[3], lk);
-            fb[k] = tau_len(c[3], lk);
-            ok[k] = valid;
-        }
-    } else {
-        partial_table_pass(tf, sf, sb, l, &mut ok, &mut cf, &mut dc, &mut fa, &mut fb);
-    }
-    partial_rest(psi, &ok, &cf, &dc, &fa, &fb, out);
-}
-
-/// `partial`'s first pass by table look-ups.
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn partial_table_pass(
-    tf: &TfTable,
-    sf: &[f32; BATCH],
-    sb: &[f32; BATCH],
-    l: &[f32; BATCH],
-    ok: &mut [bool; BATCH],
-    cf: &mut [[f32; BATCH]; 3],
-    dc: &mut [[f32; BATCH]; 3],
-    fa: &mut [f32; BATCH],
-    fb: &mut [f32; BATCH],
-) {
-    // 1a. Validity and the table coordinates (arithmetic, vectorised), as `tf_lanes`.
-    let last = (tf.data.len() - 2) as i32;
-    let (mut i_f, mut i_b) = ([0i32; BATCH], [0i32; BATCH]);
-    let (mut t_f, mut t_b) = ([0.0f32; BATCH], [0.0f32; BATCH]);
-    let mut lz = [0.0f32; BATCH];
+    // 1. Validity and the transfer function at both ends (look-ups).
     for k in 0..BATCH {
         let (f, bk, lk) = (sf[k], sb[k], l[k]);
         let valid = finite(f) && finite(bk) && lk > 0.0;
         // Invalid lanes compute on zeros (their output is 0 anyway), so no index runs wild.
         let (f, bk, lk) = if valid { (f, bk, lk) } else { (0.0, 0.0, 0.0) };
-        let coord = |s: f32| {
-            let x = ((s - tf.lo) * tf.scale).max(0.0).min(tf.max);
-            let i = (x as i32).clamp(0, last);
-            (i, x - i as f32)
-        };
-        (i_f[k], t_f[k]) = coord(f);
-        (i_b[k], t_b[k]) = coord(bk);
-        lz[k] = lk;
-        ok[k] = valid;
-    }
-    // 1b. The look-ups and their interpolation.
-    let lerp = |i: i32, t: f32| {
-        // SAFETY: 0 ≤ i ≤ len − 2 (the table has ≥ 2 samples, asserted by the caller).
-        let (a, b) = unsafe {
-            (
-                *tf.data.get_unchecked(i as usize),
-                *tf.data.get_unchecked(i as usize + 1),
-            )
-        };
-        [
-            a[0] + (b[0] - a[0]) * t,
-            a[1] + (b[1] - a[1]) * t,
-            a[2] + (b[2] - a[2]) * t,
-            a[3] + (b[3] - a[3]) * t,
-        ]
-    };
-    for k in 0..BATCH {
-        let (a, c) = (lerp(i_f[k], t_f[k]), lerp(i_b[k], t_b[k]));
+        let (a, c) = (tf_lanes(tf, f), tf_lanes(tf, bk));
         for ch in 0..3 {
             cf[ch][k] = a[ch];
             dc[ch][k] = c[ch] - a[ch];
         }
-        fa[k] = tau_len(a[3], lz[k]);
-        fb[k] = tau_len(c[3], lz[k]);
+        fa[k] = tau_len(a[3], lk);
+        fb[k] = tau_len(c[3], lk);
+        ok[k] = valid;
     }
-}
-
-/// `partial`'s passes 2–4.
-#[inline(always)]
-fn partial_rest(
-    psi: &PsiTable,
-    ok: &[bool; BATCH],
-    cf: &[[f32; BATCH]; 3],
-    dc: &[[f32; BATCH]; 3],
-    fa: &[f32; BATCH],
-    fb: &[f32; BATCH],
-    out: &mut [[f32; BATCH]; 4],
-) {
-    // 2. exp and the Ψ table coordinates γ·(n − 1), their cells and fractions (arithmetic),
-    // as `psi_lookup`.
-    let n = psi.size();
-    let m = (n - 1) as f32;
-    let (last, ni) = ((n - 2) as i32, n as i32);
+    // 2. exp and the Ψ table coordinates γ·(n − 1) (arithmetic).
+    let m = (psi.size() - 1) as f32;
     let mut zeta = [0.0f32; BATCH];
-    let mut cell = [0i32; BATCH];
-    let (mut ta, mut tb) = ([0.0f32; BATCH], [0.0f32; BATCH]);
+    let (mut ga, mut gb) = ([0.0f32; BATCH], [0.0f32; BATCH]);
     for k in 0..BATCH {
         zeta[k] = exp_neg(0.5 * (fa[k] + fb[k]));
         // γ = x/(1 + x) = 1 − 1/(1 + x), as `psi_lookup`.
-        let ga = (1.0 - 1.0 / (1.0 + fa[k])) * m;
-        let gb = (1.0 - 1.0 / (1.0 + fb[k])) * m;
-        let i = (ga as i32).clamp(0, last);
-        let j = (gb as i32).clamp(0, last);
-        ta[k] = ga - i as f32;
-        tb[k] = gb - j as f32;
-        cell[k] = j * ni + i;
+        ga[k] = (1.0 - 1.0 / (1.0 + fa[k])) * m;
+        gb[k] = (1.0 - 1.0 / (1.0 + fb[k])) * m;
     }
     // 3. Ψ (look-ups).
-    let d = psi.data();
     let mut ps = [0.0f32; BATCH];
     for k in 0..BATCH {
-        let r0 = cell[k] as usize;
-        let r1 = r0 + n;
-        // SAFETY: i, j ≤ n − 2, so r1 + 1 ≤ n² − 1 < d.len() (asserted by the caller).
-        let g = |k: usize| unsafe { *d.get_unchecked(k) };
-        let v0 = g(r0) + (g(r0 + 1) - g(r0)) * ta[k];
-        let v1 = g(r1) + (g(r1 + 1) - g(r1)) * ta[k];
-        ps[k] = v0 + (v1 - v0) * tb[k];
+        ps[k] = psi_at(psi, ga[k], gb[k]);
     }
     // 4. The blend (arithmetic).
     let [or, og, ob, oa] = out;
@@ -596,6 +358,26 @@ fn partial_rest(
         ob[k] = z(cf[2][k] * alpha + dc[2][k] * pmz);
         oa[k] = z(alpha);
     }
+}
+
+/// The bilinear part of [`psi_lookup`] at table coordinates `ga`, `gb` (γ·(n − 1)).
+#[inline(always)]
+fn psi_at(t: &PsiTable, ga: f32, gb: f32) -> f32 {
+    let n = t.size();
+    let last = (n - 2) as i32;
+    let coord = |g: f32| {
+        let i = (g as i32).clamp(0, last);
+        (i as usize, g - i as f32)
+    };
+    let (i, ti) = coord(ga);
+    let (j, tj) = coord(gb);
+    let d = t.data();
+    let (r0, r1) = (j * n + i, (j + 1) * n + i);
+    // SAFETY: i, j ≤ n − 2, so r1 + 1 ≤ n² − 1 < d.len() (asserted by the caller).
+    let g = |k: usize| unsafe { *d.get_unchecked(k) };
+    let v0 = g(r0) + (g(r0 + 1) - g(r0)) * ti;
+    let v1 = g(r1) + (g(r1 + 1) - g(r1)) * ti;
+    v0 + (v1 - v0) * tj
 }
 
 /// Bilinear Ψ at the end depths `fa`, `fb` (≥ 0), as [`PsiTable::lookup`].
@@ -652,4 +434,116 @@ fn preint_lookup(t: &PreintTable, sf: f32, sb: f32, l: f32) -> [f32; 4] {
 }
 
 #[cfg(test)]
-mod tests;
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exp_neg_matches_exp() {
+        let mut worst = 0.0f64;
+        for k in 0..200_000 {
+            let x = k as f32 * 1e-4; // 0..20
+            let e = (-(x as f64)).exp();
+            let r = ((exp_neg(x) as f64 - e) / e).abs();
+            worst = worst.max(r);
+        }
+        assert!(worst < 2e-6, "worst relative error {worst:e}");
+        assert_eq!(exp_neg(0.0), 1.0);
+        assert_eq!(exp_neg(f32::INFINITY), exp_neg(1e9));
+        assert!(exp_neg(1e9) < 1e-37);
+    }
+
+    /// The vectorised batch kernels give the scalar definition's bits, on ordinary segments and
+    /// on the edge cases (l ≤ 0, NaN and infinite ends, huge lengths, s outside the TF range).
+    #[test]
+    fn shade_batch_matches_scalar() {
+        let tf = TransferFunction::preset("default").unwrap();
+        let mut seed = 1u64;
+        let mut rnd = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let special = [
+            0.0,
+            -0.0,
+            -1.0,
+            f32::NAN,
+            f32::INFINITY,
+            -f32::INFINITY,
+            1e30,
+            1e-30,
+        ];
+        for name in ["average", "partial", "preint"] {
+            let integ = FastIntegrator::new(name, &tf).unwrap();
+            for round in 0..40 {
+                let mut b = ShadeBatch {
+                    len: if round % 5 == 4 {
+                        1 + round % BATCH
+                    } else {
+                        BATCH
+                    },
+                    ..Default::default()
+                };
+                for k in 0..BATCH {
+                    b.sf[k] = 1.4 * rnd() - 0.2;
+                    b.sb[k] = 1.4 * rnd() - 0.2;
+                    b.l[k] = rnd() * rnd() * if round % 3 == 0 { 50.0 } else { 0.05 };
+                    if round % 2 == 1 && k % 7 == 0 {
+                        let v = special[k / 7 % special.len()];
+                        match k % 3 {
+                            0 => b.sf[k] = v,
+                            1 => b.sb[k] = v,
+                            _ => b.l[k] = v,
+                        }
+                    }
+                }
+                let mut scalar = b.clone();
+                integ.shade_batch_scalar(&mut scalar);
+                // The portable lane-wise kernels (the fallback where AVX2 is missing) too.
+                let mut lanes = b.clone();
+                if !matches!(integ, FastIntegrator::Preint(_)) {
+                    pulp::Arch::new().dispatch(Lanes {
+                        integ: &integ,
+                        b: &mut lanes,
+                    });
+                } else {
+                    integ.shade_batch_scalar(&mut lanes);
+                }
+                integ.shade_batch(&mut b);
+                for c in 0..4 {
+                    for k in 0..b.len {
+                        assert_eq!(lanes.out[c][k].to_bits(), scalar.out[c][k].to_bits());
+                    }
+                }
+                for c in 0..4 {
+                    for k in 0..b.len {
+                        assert_eq!(
+                            b.out[c][k].to_bits(),
+                            scalar.out[c][k].to_bits(),
+                            "{name} channel {c} segment {k}: ({}, {}, {})",
+                            b.sf[k],
+                            b.sb[k],
+                            b.l[k]
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn tf_table_matches_tf() {
+        let tf = TransferFunction::preset("default").unwrap();
+        let t = TfTable::new(&tf, TF_SAMPLES);
+        for k in 0..=2000 {
+            let s = -0.2 + 1.4 * k as f64 / 2000.0;
+            let (c, tau) = tf.eval(s);
+            let v = t.eval(s as f32);
+            for ch in 0..3 {
+                assert!((v[ch] as f64 - c[ch]).abs() < 1e-3, "s {s}");
+            }
+            assert!((v[3] as f64 - tau).abs() < 1e-2 * tau.max(1.0), "s {s}");
+        }
+    }
+}

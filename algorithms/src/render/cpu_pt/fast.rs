@@ -17,11 +17,9 @@
 //!   rasteriser and ~6 % less CPU per process (docs/performance.md, third pass);
 //! - **batched shading**: fragments are queued (pixel, `s_f`, `s_b`, `l`) and a batch is shaded
 //!   at once ([`FastIntegrator::shade_batch`]) and then composited in queue order, which is the
-//!   order a per-fragment loop would composite in, so the image is the same. A batch whose tets
-//!   all lie in one linear piece of the transfer function carries it ([`ShadeBatch::piece`]),
-//!   and `partial` then shades it without table look-ups (docs/performance.md, fourth pass).
+//!   order a per-fragment loop would composite in, so the image is the same.
 
-use crate::optics_f32::{FastIntegrator, ShadeBatch, BATCH, NO_PIECE};
+use crate::optics_f32::{FastIntegrator, ShadeBatch, BATCH};
 use crate::pt::{fan_bits, wedge, TetRaster, MAX_FAN, TABLE};
 
 use super::TILE;
@@ -74,16 +72,6 @@ pub(super) fn draw_tile(
         let Some(mut tr) = TetRaster::new(case, &q, clip) else {
             continue;
         };
-        // The TF's linear piece that holds the tet's scalar range (the attributes lie between
-        // the vertices' values), shared by the batch while every tet in it has the same.
-        let smin = r.s[0].min(r.s[1]).min(r.s[2].min(r.s[3]));
-        let smax = r.s[0].max(r.s[1]).max(r.s[2].max(r.s[3]));
-        let piece = integ.piece_of(smin, smax);
-        if batch.len == 0 {
-            batch.piece = piece;
-        } else if batch.piece != piece {
-            batch.piece = NO_PIECE;
-        }
         // Attributes (s_f, s_b, l) over fan triangle k: thick + lx·(x − thick) + ly·(y − thick)
         // with x, y its silhouette vertices (l = 0 there) and lx = −F_{k+1}·inv_x,
         // ly = F_k·inv_y (see `TetRaster`): thick + F_{k+1}·cx[k] + F_k·cy[k], in f64, set up
@@ -135,7 +123,6 @@ pub(super) fn draw_tile(
                 if batch.len == BATCH {
                     frags += BATCH as u64;
                     flush(integ, &mut batch, &pix, &mut buf);
-                    batch.piece = piece;
                 }
             }
         });

@@ -11,29 +11,14 @@
 //! `MAXD=x` fixes the map's scale; `TIMES=n` times each method n more times (minimum of the depth and filter stages).
 use algorithms::camera::{Camera, Projection};
 use algorithms::image::Image;
-use algorithms::jbu::{cube_views, low_camera, BoundaryRaster, Method, Params, Upsampler};
+use algorithms::jbu::{cube_views, low_camera, BoundaryRaster, Params, Upsampler};
 use algorithms::render::{self, RenderOptions};
 use algorithms::TransferFunction;
 use std::collections::BTreeMap;
 use tetbench::meshes::{load_mesh, MeshSpec};
 
 fn parse_method(s: &str) -> Params {
-    let mut it = s.split(':');
-    let mut p = Params {
-        method: Method::parse(it.next().unwrap()).unwrap(),
-        ..Params::default()
-    };
-    for o in it {
-        let (k, v) = o.split_once('=').unwrap();
-        match k {
-            "k" => p.k = v.parse().unwrap(),
-            "s" => p.sigma_r = v.parse().unwrap(),
-            "r" => p.radius = v.parse().unwrap(),
-            "c" => p.sigma_c = v.parse().unwrap(),
-            _ => panic!("bad option {o}"),
-        }
-    }
-    p
+    Params::from_spec(s).unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn main() {

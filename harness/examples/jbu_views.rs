@@ -12,28 +12,13 @@
 use std::time::Instant;
 
 use algorithms::camera::{Camera, Projection};
-use algorithms::jbu::{cube_views, low_camera, Method, Params, Upsampler};
+use algorithms::jbu::{cube_views, low_camera, Params, Upsampler};
 use algorithms::render::{self, RenderOptions};
 use algorithms::{metrics, TransferFunction};
 use tetbench::meshes::{load_mesh, MeshSpec};
 
 fn parse_method(s: &str) -> Params {
-    let mut it = s.split(':');
-    let mut p = Params {
-        method: Method::parse(it.next().unwrap()).unwrap(),
-        ..Params::default()
-    };
-    for o in it {
-        let (k, v) = o.split_once('=').unwrap();
-        match k {
-            "k" => p.k = v.parse().unwrap(),
-            "s" => p.sigma_r = v.parse().unwrap(),
-            "r" => p.radius = v.parse().unwrap(),
-            "c" => p.sigma_c = v.parse().unwrap(),
-            _ => panic!("bad option {o}"),
-        }
-    }
-    p
+    Params::from_spec(s).unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn main() {

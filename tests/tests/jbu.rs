@@ -453,3 +453,17 @@ fn the_documented_defaults_are_the_real_ones() {
     assert!(matches!(bad.set("k", "x"), Err(Error::Input(_))));
     assert!(matches!(bad.set("nope", "1"), Err(Error::Input(_))));
 }
+
+#[test]
+fn params_from_spec() {
+    use algorithms::jbu::{Method, Params};
+    let p = Params::from_spec("bilateral:k=2:s=0.01:c=0.2:r=3").unwrap();
+    assert_eq!(
+        (p.method, p.k, p.sigma_r, p.sigma_c, p.radius),
+        (Method::Bilateral, 2, 0.01, 0.2, 3)
+    );
+    assert_eq!(Params::from_spec("linear").unwrap().method, Method::Linear);
+    for bad in ["blur", "bilateral:k", "bilateral:k=9", "bilateral:q=1", ""] {
+        assert!(Params::from_spec(bad).is_err(), "{bad}");
+    }
+}

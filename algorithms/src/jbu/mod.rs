@@ -184,6 +184,24 @@ impl Params {
         Ok(())
     }
 
+    /// Parameters from a spec `method[:key=value]...` (keys of [`PARAMS`], `s` short for
+    /// `sigma`), the defaults for what is not given, checked; e.g. `bilateral:k=2:s=0.01`.
+    pub fn from_spec(spec: &str) -> Result<Params> {
+        let mut it = spec.split(':');
+        let mut p = Params {
+            method: Method::parse(it.next().unwrap_or_default())?,
+            ..Params::default()
+        };
+        for o in it {
+            let (k, v) = o
+                .split_once('=')
+                .ok_or_else(|| Error::Input(format!("jbu: '{o}' is not key=value")))?;
+            p.set(if k == "s" { "sigma" } else { k }, v)?;
+        }
+        p.check()?;
+        Ok(p)
+    }
+
     /// Checks the ranges; `Error::Input` names the bad value.
     pub fn check(&self) -> Result<()> {
         if !(1..=MAX_LAYERS).contains(&self.k) {

@@ -16,8 +16,8 @@ use algorithms::camera::{Camera, Projection, View};
 use algorithms::io::{self, LoadOptions};
 use algorithms::optics_f32::{FastIntegrator, ShadeBatch, BATCH};
 use algorithms::pt::{
-    classify, fan_bits, raster_fan, raster_fan_rows, snap, wedge, FanGeometry, ProjVertex,
-    TetRaster, Thick,
+    classify, fan_bits, raster_fan, raster_fan_rows, wedge, FanGeometry, ProjVertex, TetRaster,
+    Thick,
 };
 use algorithms::render::{self, RenderOptions};
 use algorithms::{Mesh, TransferFunction};
@@ -45,13 +45,7 @@ fn classified(
         .map(|t| {
             let v = t.map(|v| {
                 let p = mesh.positions()[v as usize] - c;
-                let (x, y, z) = cam.project(p);
-                ProjVertex {
-                    q: [snap(x), snap(y)],
-                    z,
-                    p,
-                    s: map.s(mesh.scalars()[v as usize]),
-                }
+                ProjVertex::project(cam, p, map.s(mesh.scalars()[v as usize]))
             });
             let th = classify(&v, false, inv_l);
             (FanGeometry::new(v.map(|p| p.q), &th), th, v.map(|p| p.s))

@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use algorithms::camera::{Camera, Projection, View};
 use algorithms::optics::{psi, PsiTable};
-use algorithms::pt::{classify, raster_fan, snap, FanGeometry, ProjVertex};
+use algorithms::pt::{classify, raster_fan, FanGeometry, ProjVertex};
 use algorithms::render::{self, RenderOptions};
 use algorithms::{sort, Mesh, TransferFunction};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
@@ -25,13 +25,7 @@ fn projected(mesh: &Mesh, cam: &Camera) -> Vec<[ProjVertex; 4]> {
         .map(|t| {
             t.map(|v| {
                 let p = mesh.positions()[v as usize] - c;
-                let (x, y, z) = cam.project(p);
-                ProjVertex {
-                    q: [snap(x), snap(y)],
-                    z,
-                    p,
-                    s: (mesh.scalars()[v as usize] - lo) / (hi - lo),
-                }
+                ProjVertex::project(cam, p, (mesh.scalars()[v as usize] - lo) / (hi - lo))
             })
         })
         .collect()

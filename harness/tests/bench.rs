@@ -10,6 +10,22 @@ fn tetbench(args: &[&str]) -> Output {
         .expect("run tetbench")
 }
 
+/// `tetbench bench CFG --out OUT --no-plots` with no VTK Python configured (VTK variants are
+/// then unavailable).
+fn bench_without_vtk(cfg: &Path, out: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_tetbench"))
+        .args([
+            "bench",
+            cfg.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .arg("--no-plots")
+        .env_remove("TETBENCH_VTK_PYTHON")
+        .output()
+        .expect("run tetbench")
+}
+
 fn tmpdir(tag: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("tetbench-bench-{tag}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
@@ -234,17 +250,7 @@ named = ["0,0"]
         )
         .unwrap();
         let out = d.join(format!("out{optional}"));
-        let o = Command::new(env!("CARGO_BIN_EXE_tetbench"))
-            .args([
-                "bench",
-                cfg.to_str().unwrap(),
-                "--out",
-                out.to_str().unwrap(),
-            ])
-            .arg("--no-plots")
-            .env_remove("TETBENCH_VTK_PYTHON")
-            .output()
-            .expect("run tetbench");
+        let o = bench_without_vtk(&cfg, &out);
         (o, out)
     };
     let (o, out) = run(true);
@@ -424,17 +430,7 @@ named = ["0,0", "90,30"]
     )
     .unwrap();
     let out = d.join("out");
-    let o = Command::new(env!("CARGO_BIN_EXE_tetbench"))
-        .args([
-            "bench",
-            cfg.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-        ])
-        .arg("--no-plots")
-        .env_remove("TETBENCH_VTK_PYTHON")
-        .output()
-        .expect("run tetbench");
+    let o = bench_without_vtk(&cfg, &out);
     // (The exit status says that rows failed: vtk-pt's, below.)
     let (head, rows) = read_csv(&out.join("results.csv"));
     assert_eq!(rows.len(), 6, "{}", String::from_utf8_lossy(&o.stderr));

@@ -7,7 +7,7 @@
 mod common;
 
 use algorithms::camera::{Camera, Projection, View};
-use algorithms::pt::{classify, raster_fan, snap, FanGeometry, Fragment, ProjVertex, TetRaster};
+use algorithms::pt::{classify, raster_fan, FanGeometry, Fragment, ProjVertex, TetRaster};
 use algorithms::{Mesh, TransferFunction};
 
 fn check(name: &str, mesh: &Mesh) {
@@ -21,13 +21,7 @@ fn check(name: &str, mesh: &Mesh) {
         for t in mesh.tets() {
             let v = t.map(|v| {
                 let p = mesh.positions()[v as usize] - c;
-                let (x, y, z) = cam.project(p);
-                ProjVertex {
-                    q: [snap(x), snap(y)],
-                    z,
-                    p,
-                    s: map.s(mesh.scalars()[v as usize]),
-                }
+                ProjVertex::project(&cam, p, map.s(mesh.scalars()[v as usize]))
             });
             let th = classify(&v, false, inv_l);
             let g = FanGeometry::new(v.map(|p| p.q), &th);

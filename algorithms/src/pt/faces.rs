@@ -140,7 +140,7 @@ mod tests {
     use crate::camera::{Camera, Projection, View};
     use crate::mesh::Aabb;
     use crate::pt::tests::Rng;
-    use crate::pt::{classify, raster_fan, snap, FanGeometry, ProjVertex, TABLE};
+    use crate::pt::{classify, raster_fan, FanGeometry, ProjVertex, TABLE};
     use glam::DVec3;
 
     /// The exact ray–tet segment (t_in, t_out) by clipping the ray against the four faces.
@@ -194,15 +194,8 @@ mod tests {
                         *q -= 0.99 * t * d;
                     }
                 }
-                let v: [ProjVertex; 4] = std::array::from_fn(|i| {
-                    let (x, y, z) = cam.project(p[i]);
-                    ProjVertex {
-                        q: [snap(x), snap(y)],
-                        z,
-                        p: p[i],
-                        s: 0.0,
-                    }
-                });
+                let v: [ProjVertex; 4] =
+                    std::array::from_fn(|i| ProjVertex::project(&cam, p[i], 0.0));
                 let fv: [FaceVertex; 4] = std::array::from_fn(|i| {
                     let (x, y, z) = cam.project(p[i]);
                     FaceVertex {

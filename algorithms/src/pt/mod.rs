@@ -375,6 +375,20 @@ pub struct ProjVertex {
     pub s: f64,
 }
 
+impl ProjVertex {
+    /// The vertex at `p` (centred frame) with TF coordinate `s`, projected by `cam` and
+    /// snapped ([`snap`]).
+    pub fn project(cam: &crate::camera::Camera, p: DVec3, s: f64) -> ProjVertex {
+        let (x, y, z) = cam.project(p);
+        ProjVertex {
+            q: [snap(x), snap(y)],
+            z,
+            p,
+            s,
+        }
+    }
+}
+
 /// A classified tet: the table entry and the thick vertex.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Thick {

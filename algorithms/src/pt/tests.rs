@@ -394,15 +394,7 @@ fn thick_vertex_through_the_camera_ortho_and_persp() {
             continue;
         }
         let s: [f64; 4] = std::array::from_fn(|_| rng.f());
-        let v: [ProjVertex; 4] = std::array::from_fn(|k| {
-            let (x, y, z) = cam.project(p[k]);
-            ProjVertex {
-                q: [snap(x), snap(y)],
-                z,
-                p: p[k],
-                s: s[k],
-            }
-        });
+        let v: [ProjVertex; 4] = std::array::from_fn(|k| ProjVertex::project(&cam, p[k], s[k]));
         let t = tests(&v.map(|v| v.q));
         let big = t.iter().map(|x| x.abs()).max().unwrap() as f64;
         if t.iter().any(|&x| (x.abs() as f64) < 1e-3 * big) {

@@ -93,3 +93,15 @@ impl Bins {
 struct SharedOut(*mut u32);
 // SAFETY: see `Bins::build`: every index is written by exactly one thread.
 unsafe impl Sync for SharedOut {}
+
+/// The pixel rectangle `[x0, y0, x1, y1]` (inclusive) of tile (tx, ty) in a `w`×`h` image.
+pub(super) fn tile_clip(tx: u32, ty: u32, w: u32, h: u32) -> [i64; 4] {
+    use super::TILE;
+    let (x0, y0) = ((tx * TILE) as i64, (ty * TILE) as i64);
+    [
+        x0,
+        y0,
+        (x0 + TILE as i64 - 1).min(w as i64 - 1),
+        (y0 + TILE as i64 - 1).min(h as i64 - 1),
+    ]
+}

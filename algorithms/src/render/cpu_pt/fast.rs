@@ -51,13 +51,8 @@ pub(super) fn draw_tile(
 ) -> (Vec<[f32; 4]>, u64) {
     let ts = TILE as usize;
     let mut buf = vec![[0.0f32; 4]; ts * ts];
-    let (x0, y0) = ((tx * TILE) as i64, (ty * TILE) as i64);
-    let clip = [
-        x0,
-        y0,
-        (x0 + TILE as i64 - 1).min(w as i64 - 1),
-        (y0 + TILE as i64 - 1).min(h as i64 - 1),
-    ];
+    let clip = super::bins::tile_clip(tx, ty, w, h);
+    let (x0, y0) = (clip[0], clip[1]);
     let mut batch = ShadeBatch::default();
     let mut pix = [0u16; BATCH];
     let mut frags = 0u64;

@@ -72,13 +72,8 @@ impl<S: Shade> DrawCtx<'_, S> {
     fn draw_tile(&self, tx: u32, ty: u32, bin: &[u32]) -> (Vec<[f32; 4]>, u64) {
         let ts = TILE as usize;
         let mut buf = vec![[0.0f32; 4]; ts * ts];
-        let (x0, y0) = ((tx * TILE) as i64, (ty * TILE) as i64);
-        let clip = [
-            x0,
-            y0,
-            (x0 + TILE as i64 - 1).min(self.camera.width as i64 - 1),
-            (y0 + TILE as i64 - 1).min(self.camera.height as i64 - 1),
-        ];
+        let clip = super::bins::tile_clip(tx, ty, self.camera.width, self.camera.height);
+        let (x0, y0) = (clip[0], clip[1]);
         // sec θ per pixel of the tile (perspective): |ray| / (ray · f) with the ray from the eye
         // through the pixel centre on the plane through C at distance 3R.
         let sec: Vec<f64> = if self.persp {

@@ -10,7 +10,9 @@
 //!   so every range distance is exactly 0, `g = e⁰ = 1`, and the pixel is the bilinear sum
 //!   `Σ t_x t_y I_q / Σ t_x t_y` the definition computes — without slopes, distances or `exp`;
 //! - interior slopes without the border tests (minmod of the two differences);
-//! - the `exp` table fetched once per call, not per weight.
+//! - the `exp` table fetched once per call, not per weight;
+//! - of background pixels, those whose four samples are empty (no crossing, colour +0.0) are
+//!   +0.0 without arithmetic: every weighted colour and sum in the definition is +0.0.
 //!
 //! Rows run in parallel (rayon); nothing is allocated per pixel.
 
@@ -55,6 +57,12 @@ impl Filter<'_> {
             .map(|s| std::array::from_fn(|c| s.1[c]))
             .collect();
         let cnt: Vec<u8> = self.samples.iter().map(|s| s.2 as u8).collect();
+        // Samples with no crossing and colour +0.0 (the empty background of every renderer).
+        let empty: Vec<bool> = self
+            .samples
+            .iter()
+            .map(|s| s.2 == 0 && s.0.iter().all(|v| v.to_bits() == 0))
+            .collect();
         out.pixels
             .par_chunks_mut(w)
             .enumerate()
@@ -73,6 +81,11 @@ impl Filter<'_> {
                     let tw = [tx[0] * ty[0], tx[1] * ty[0], tx[0] * ty[1], tx[1] * ty[1]];
                     let np = count[j * w + i] as usize;
                     let inner = inner_row && i > 0 && i + 1 < w;
+                    if np == 0 && inner && q.iter().all(|&s| empty[s]) {
+                        // Background over empty samples: each product and sum is +0.0.
+                        *o = [0.0; 4];
+                        continue;
+                    }
                     if np == 0 && inner && q.iter().all(|&s| cnt[s] == 0) {
                         // Background: g = 1 for every sample (module doc).
                         let mut acc = [0.0f32; 4];

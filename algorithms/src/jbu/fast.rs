@@ -10,7 +10,9 @@
 //!   so every range distance is exactly 0, `g = e⁰ = 1`, and the pixel is the bilinear sum
 //!   `Σ t_x t_y I_q / Σ t_x t_y` the definition computes — without slopes, distances or `exp`;
 //! - interior slopes without the border tests (minmod of the two differences);
-//! - the `exp` table fetched once per call, not per weight;
+//! - the four range weights computed as one vector (the `exp` is branch-free), and not at
+//!   all where every exponent is below [`super::filter::EXP_ONE`], where `exp_neg` is exactly
+//!   1 (the planar guide of a smooth surface extrapolates to its samples to rounding);
 //! - of background pixels, those whose four samples are empty (no crossing, colour +0.0) are
 //!   +0.0 without arithmetic: every weighted colour and sum in the definition is +0.0.
 //!
@@ -18,7 +20,7 @@
 
 use rayon::prelude::*;
 
-use super::filter::{axis, exp_neg_in, exp_table, slopes, Axis, Filter};
+use super::filter::{axis, exp_neg, slopes, Axis, Filter, EXP_ONE};
 use super::filter::{bilinear4, G_FLAT, G_MATCH, W_MIN};
 use super::range::{range_d2, refine_equal};
 use crate::image::Image;
@@ -46,7 +48,6 @@ impl Filter<'_> {
     ) {
         let (w, h) = (self.full.width as usize, self.full.height as usize);
         let (lw, inv2s2, inv2c2, flat) = (self.lw, self.inv2s2, self.inv2c2, self.flat_d2);
-        let tab = exp_table();
         let depth = &self.full.depth;
         let count = &self.full.count;
         // Structure of arrays of the low-res samples.
@@ -162,12 +163,16 @@ impl Filter<'_> {
                     }
                     let mut acc = [0.0f32; 4];
                     let mut wsum = 0.0f32;
-                    let mut gd = [0.0f32; 4];
+                    let x: [f32; 4] = std::array::from_fn(|m| d2[m] * inv2s2);
+                    let gd: [f32; 4] = if x.iter().all(|&x| x < EXP_ONE) {
+                        [1.0; 4] // what exp_neg gives there (module doc)
+                    } else {
+                        x.map(exp_neg)
+                    };
                     let mut edge = false;
                     for m in 0..4 {
-                        let g = exp_neg_in(tab, d2[m] * inv2s2);
+                        let g = gd[m];
                         edge |= g < G_FLAT;
-                        gd[m] = g;
                         let wgt = tw[m] * g;
                         for (a, v) in acc.iter_mut().zip(&colour[q[m]]) {
                             *a += wgt * v;
@@ -204,7 +209,7 @@ impl Filter<'_> {
                         for (v, mm) in cs.iter().zip(&same) {
                             c2 += (v - mm) * (v - mm);
                         }
-                        let g = gd[m].max(exp_neg_in(tab, c2 * inv2c2));
+                        let g = gd[m].max(exp_neg(c2 * inv2c2));
                         let wgt = tw[m] * g;
                         for (a, v) in acc.iter_mut().zip(cs) {
                             *a += wgt * v;

@@ -502,35 +502,45 @@ impl Filter<'_> {
     }
 }
 
-/// Steps per unit of the [`exp_neg`] table, and where it ends (e^−24 ≈ 4e-11).
-const EXP_STEPS: f32 = 64.0;
+/// Where the range and colour kernels end: e^−x is taken as 0 for x ≥ 24 (e^−24 ≈ 4e-11).
 const EXP_END: f32 = 24.0;
 
-/// The table of [`exp_neg`]: e^−i/[`EXP_STEPS`] for i = 0..=EXP_END·EXP_STEPS + 1.
-pub(super) fn exp_table() -> &'static [f32] {
-    static TABLE: std::sync::OnceLock<Vec<f32>> = std::sync::OnceLock::new();
-    TABLE.get_or_init(|| {
-        (0..=(EXP_END * EXP_STEPS) as usize + 1)
-            .map(|i| (-(i as f64) / EXP_STEPS as f64).exp() as f32)
-            .collect()
-    })
-}
+/// Below this exponent [`exp_neg`] is exactly 1.0 (its polynomial's 1 + f·p rounds to 1 for
+/// |f·p| < 2^−25; 2^−26 leaves a factor 2; `exp_neg_is_one_below_exp_one` checks it).
+pub(super) const EXP_ONE: f32 = 1.0 / (1u32 << 26) as f32;
 
-/// e^−x for x ≥ 0 from a table with linear interpolation (relative error < 1e-4), 0 beyond
-/// [`EXP_END`] and for NaN/inf. The filter spends most of its time here.
-#[inline]
-fn exp_neg(x: f32) -> f32 {
-    exp_neg_in(exp_table(), x)
-}
-
-/// [`exp_neg`] with the table given (fetched once per filter call).
+/// e^−x for x ≥ 0 by [`crate::optics_f32::exp_neg`] (branch-free, relative error ≤ 2e-6, so
+/// the four weights of a pixel are computed as one vector), 0 for x ≥ [`EXP_END`] and for NaN.
 #[inline(always)]
-pub(super) fn exp_neg_in(t: &[f32], x: f32) -> f32 {
-    if x.is_nan() || x >= EXP_END {
-        return 0.0;
+pub(super) fn exp_neg(x: f32) -> f32 {
+    let e = crate::optics_f32::exp_neg(x.max(0.0));
+    if x < EXP_END {
+        e
+    } else {
+        0.0
     }
-    let f = x.max(0.0) * EXP_STEPS;
-    let i = f as usize;
-    let a = t[i];
-    a + (t[i + 1] - a) * (f - i as f32)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{exp_neg, EXP_ONE};
+
+    #[test]
+    fn exp_neg_is_one_below_exp_one() {
+        // Every f32 in [0, EXP_ONE) of the top binades, and a sweep of the rest.
+        let mut x = EXP_ONE;
+        for _ in 0..(1 << 20) {
+            x = f32::from_bits(x.to_bits() - 1);
+            assert_eq!(exp_neg(x), 1.0, "x = {x:e}");
+        }
+        for e in 0..200 {
+            let x = EXP_ONE * 0.5f32.powi(e);
+            assert_eq!(exp_neg(x), 1.0, "x = {x:e}");
+        }
+        assert_eq!(exp_neg(0.0), 1.0);
+        assert_eq!(exp_neg(f32::NAN), 0.0);
+        assert_eq!(exp_neg(24.0), 0.0);
+        let r = (exp_neg(1.0) as f64 - (-1.0f64).exp()).abs() / (-1.0f64).exp();
+        assert!(r < 2e-6, "{r}");
+    }
 }

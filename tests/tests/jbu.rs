@@ -431,7 +431,11 @@ fn fast_paths_equal_their_scalar_definitions() {
     // and an axis-aligned view whose edges pass through rows of pixel centres.
     for v in [cube_views()[0], cube_views()[8], View::new(0.0, 0.0)] {
         let full = Camera::new(&mesh.bbox(), v, Projection::Ortho, 640, 480);
-        assert_eq!(raster.layers(&full, 4), raster.layers_scalar(&full, 4), "{v:?}");
+        assert_eq!(
+            raster.layers(&full, 4),
+            raster.layers_scalar(&full, 4),
+            "{v:?}"
+        );
     }
 }
 

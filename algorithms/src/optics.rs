@@ -31,6 +31,24 @@ pub struct Segment {
     pub alpha: f64,
 }
 
+impl Segment {
+    /// The `partial` segment from its end colours, opacity α = 1 − ζ and Ψ − ζ:
+    /// I = C_f(1 − Ψ) + C_b(Ψ − ζ) written as C_f·α + (C_b − C_f)(Ψ − ζ) (see `piece_segment`),
+    /// so that a constant colour gives exactly C·α however thin the segment. Shared by
+    /// [`Partial`] and the ray caster's own evaluation of it (same operations, same bits).
+    #[inline(always)]
+    pub fn from_partial(cf: [f64; 3], cb: [f64; 3], alpha: f64, pmz: f64) -> Segment {
+        Segment {
+            rgb: [
+                cf[0] * alpha + (cb[0] - cf[0]) * pmz,
+                cf[1] * alpha + (cb[1] - cf[1]) * pmz,
+                cf[2] * alpha + (cb[2] - cf[2]) * pmz,
+            ],
+            alpha,
+        }
+    }
+}
+
 /// A per-segment integrator of the emission–absorption model.
 pub trait Integrator: Send + Sync {
     fn name(&self) -> &'static str;
@@ -781,16 +799,7 @@ impl Partial {
         let alpha = -(-g_end).exp_m1();
         // Ψ − ζ from the table, kept in [0, α] (Ψ ∈ [ζ, 1]).
         let pmz = (self.table.lookup(fa, fb) - zeta).clamp(0.0, alpha);
-        // I = C_f(1 − Ψ) + C_b(Ψ − ζ) written as C_f·α + (C_b − C_f)(Ψ − ζ) (see `piece_segment`),
-        // so that a constant colour gives exactly C·α however thin the segment.
-        Segment {
-            rgb: [
-                cf[0] * alpha + (cb[0] - cf[0]) * pmz,
-                cf[1] * alpha + (cb[1] - cf[1]) * pmz,
-                cf[2] * alpha + (cb[2] - cf[2]) * pmz,
-            ],
-            alpha,
-        }
+        Segment::from_partial(cf, cb, alpha, pmz)
     }
 
     pub fn tf(&self) -> &TransferFunction {

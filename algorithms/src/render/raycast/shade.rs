@@ -169,15 +169,7 @@ impl Shade for RcPartial {
         let zeta = exp_neg(0.5 * (fa + fb));
         let alpha = 1.0 - zeta;
         let pmz = (self.p.table().lookup(fa, fb) - zeta).clamp(0.0, alpha);
-        let (cf, cb) = (f.c, b.c);
-        Segment {
-            rgb: [
-                cf[0] * alpha + (cb[0] - cf[0]) * pmz,
-                cf[1] * alpha + (cb[1] - cf[1]) * pmz,
-                cf[2] * alpha + (cb[2] - cf[2]) * pmz,
-            ],
-            alpha,
-        }
+        Segment::from_partial(f.c, b.c, alpha, pmz)
     }
 }
 

@@ -27,7 +27,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::{ms_since, Family, Frame, FrameTimes, RenderOptions, Renderer, RendererInfo};
-use crate::camera::Camera;
+use crate::camera::{Camera, Projection};
 use crate::error::{Error, Result};
 use crate::image::Image;
 use crate::mesh::{signed_volume6, Mesh, BOUNDARY};
@@ -35,6 +35,7 @@ use crate::optics::INTEGRATORS;
 use crate::tf::TransferFunction;
 use bvh::Bvh;
 use predicate::RayCtx;
+use projected::SharedFrame;
 use shade::{Shade, Shader};
 
 /// Registry entry for `raycast` (any integrator; `partial` by default).
@@ -308,6 +309,11 @@ impl Prepared {
         } else {
             None
         };
+        // Orthographic rays share their direction, so a projected walk can share its frame.
+        let shared = match camera.projection {
+            Projection::Ortho if projected => SharedFrame::new(&self.verts, camera.pixel_ray(0, 0).dir),
+            _ => None,
+        };
         px.par_chunks_mut(w * TILE)
             .enumerate()
             .map(|(b, band)| {
@@ -322,8 +328,16 @@ impl Prepared {
                             let ray = camera.pixel_ray(i as u32, j as u32);
                             let ctx = RayCtx::new(&ray, camera, self.max_abs);
                             let (seg, s) = if projected {
-                                let first = (grid.as_ref(), i, j);
-                                self.cast_projected(tets, shade, &front, &ctx, first, &mut seed)
+                                let pre = (grid.as_ref(), shared.as_ref());
+                                self.cast_projected(
+                                    tets,
+                                    shade,
+                                    &front,
+                                    &ctx,
+                                    pre,
+                                    (i, j),
+                                    &mut seed,
+                                )
                             } else {
                                 self.cast(tets, shade, &front, &ctx, &mut seed)
                             };

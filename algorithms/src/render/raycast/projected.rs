@@ -4,7 +4,9 @@
 //! each vertex of a cell is transformed into that frame once, when the walk first meets it
 //! (the three vertices of the face it came through carry theirs). The Plücker product of the
 //! ray with a directed edge `a → b` is then the 2-D cross product `a.x·b.y − a.y·b.x`
-//! (Binet–Cauchy: `(a × b)·(f1 × f2)`), two products instead of orient3d's nine.
+//! (Binet–Cauchy: `(a × b)·(f1 × f2)`), two products instead of orient3d's nine. The rays of an
+//! orthographic view share one frame ([`SharedFrame`]): every vertex is put in its axes once per
+//! image, and a step subtracts the ray's origin there instead of taking three dot products.
 //!
 //! **Decisions are the exact ones.** A product is accepted when its magnitude exceeds a static
 //! per-ray bound of its rounding error *against the exact orient3d* of the three-dimensional
@@ -29,6 +31,7 @@
 use std::cell::Cell;
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use super::bvh::Front;
 use super::entry::EntryGrid;
@@ -42,8 +45,11 @@ use crate::optics::{composite_under, Segment};
 const U: f64 = f64::EPSILON / 2.0;
 
 /// A ray's 2-D frame and the static error bound of its products.
-pub(super) struct Frame2 {
+pub(super) struct Frame2<'a> {
     o: DVec3,
+    /// The vertices in the frame's axes, when the frame is one all the frame's rays share
+    /// ([`SharedFrame`]), and the ray's origin in them: a vertex is then `fl(p·f) − fl(o·f)`.
+    shared: Option<(&'a SharedFrame, Local)>,
     d: DVec3,
     f1: DVec3,
     f2: DVec3,
@@ -58,15 +64,63 @@ pub(super) struct Frame2 {
 /// A vertex in a ray's frame: `(p − o)·f1`, `(p − o)·f2`, the depth `(p − o)·d` and the
 /// transfer-function coordinate `s`.
 #[derive(Clone, Copy)]
-struct Local {
+pub(super) struct Local {
     x: f64,
     y: f64,
     z: f64,
     s: f64,
 }
 
-impl Frame2 {
-    /// The frame of `ray`; `max_abs` bounds every vertex coordinate.
+/// The axes `f1`, `f2` of the frame of the unit direction `ch` (`f1 × f2 = ch` up to
+/// rounding): `f1` from the axis least aligned with it, `f2 = ch × f1`.
+fn axes(ch: DVec3) -> (DVec3, DVec3) {
+    let ax = ch.abs();
+    let axis = if ax.x <= ax.y && ax.x <= ax.z {
+        DVec3::X
+    } else if ax.y <= ax.z {
+        DVec3::Y
+    } else {
+        DVec3::Z
+    };
+    let f1 = ch.cross(axis).normalize();
+    (f1, ch.cross(f1))
+}
+
+/// One frame for every ray of a direction `d` (the rays of an orthographic view), with every
+/// vertex in it, `fl(p·f1)`, `fl(p·f2)`, `fl(p·d)` and `s`, computed once per image: a cell
+/// step then subtracts the ray's origin, `fl(o·f)`, instead of taking three dot products.
+pub(super) struct SharedFrame {
+    d: DVec3,
+    f1: DVec3,
+    f2: DVec3,
+    verts: Vec<Local>,
+}
+
+impl SharedFrame {
+    /// The shared frame of direction `d` (`None` for a direction of no length).
+    pub(super) fn new(verts: &[Vert], d: DVec3) -> Option<SharedFrame> {
+        let len = d.length();
+        if !(len > 0.0 && len.is_finite()) {
+            return None;
+        }
+        let (f1, f2) = axes(d / len);
+        let verts = verts
+            .par_iter()
+            .map(|v| Local {
+                x: v.p.dot(f1),
+                y: v.p.dot(f2),
+                z: v.p.dot(d),
+                s: v.s,
+            })
+            .collect();
+        Some(SharedFrame { d, f1, f2, verts })
+    }
+
+}
+
+impl<'a> Frame2<'a> {
+    /// The frame of `ray`; `max_abs` bounds every vertex coordinate. With `shared` (of the
+    /// ray's direction), its axes and vertex table.
     ///
     /// Error bound. Let `A = max_abs + |o|∞` bound `|p_k − o_k|`, `D = q − o` the exact direction
     /// orient3d uses (`c = fl(q − o)` within `u·|D|` of it), and `x̃ = fl((p ⊖ o)·f1)`: its
@@ -78,26 +132,38 @@ impl Frame2 {
     /// `|fl(f1 × f2) − ĉ|` plus the rounding of that measurement, of `ĉ` and of `c` against `D`
     /// (≤ 16u together). The bound is twice the sum, which also covers the rounding of the
     /// bound's own arithmetic.
-    pub(super) fn new(ray: &RayCtx, max_abs: f64) -> Frame2 {
+    ///
+    /// With a shared frame the axes are the direction's, not `ĉ`'s, and `η` measures that
+    /// difference as well (it is the same expression). A vertex is `x̃ = fl(fl(p·f1) − fl(o·f1))`:
+    /// the two dot products are within `γ₃·√3·max_abs` and `γ₃·√3·|o|∞` of their real values
+    /// (`|f1| = 1` to rounding), and the subtraction adds `u·|x̃|`, so `x̃` is within
+    /// `(γ₃ + u(1 + γ₃))·√3·A ≤ γ₄·√3·A` of `(p − o)·f1`, the bound used above: the products
+    /// are decided with the same bound.
+    pub(super) fn new(ray: &RayCtx, max_abs: f64, shared: Option<&'a SharedFrame>) -> Frame2<'a> {
         let c = ray.c;
         let len = c.length();
         let ch = if len > 0.0 { c / len } else { DVec3::Z };
-        // f1 from the axis least aligned with the ray, f2 = ĉ × f1 (so f1 × f2 = ĉ).
-        let ax = ch.abs();
-        let axis = if ax.x <= ax.y && ax.x <= ax.z {
-            DVec3::X
-        } else if ax.y <= ax.z {
-            DVec3::Y
-        } else {
-            DVec3::Z
+        let shared = shared.filter(|sf| sf.d == ray.d);
+        let (f1, f2) = match shared {
+            Some(sf) => (sf.f1, sf.f2),
+            None => axes(ch),
         };
-        let f1 = ch.cross(axis).normalize();
-        let f2 = ch.cross(f1);
+        let shared = shared.map(|sf| {
+            let o = ray.o;
+            let at = Local {
+                x: o.dot(f1),
+                y: o.dot(f2),
+                z: o.dot(sf.d),
+                s: 0.0,
+            };
+            (sf, at)
+        });
         let eta = (f1.cross(f2) - ch).length() * 1.01 + 16.0 * U;
         let a = max_abs + ray.o.abs().max_element();
         let bound = 2.0 * a * a * (60.0 * U + 3.0 * eta);
         Frame2 {
             o: ray.o,
+            shared,
             d: ray.d,
             f1,
             f2,
@@ -112,8 +178,19 @@ impl Frame2 {
         }
     }
 
+    /// Vertex `id` of `verts` in the frame.
     #[inline(always)]
-    fn local(&self, v: &Vert) -> Local {
+    fn local(&self, verts: &[Vert], id: u32) -> Local {
+        if let Some((sf, o)) = &self.shared {
+            let v = &sf.verts[id as usize];
+            return Local {
+                x: v.x - o.x,
+                y: v.y - o.y,
+                z: v.z - o.z,
+                s: v.s,
+            };
+        }
+        let v = &verts[id as usize];
         let a = v.p - self.o;
         Local {
             x: a.dot(self.f1),
@@ -174,16 +251,18 @@ impl Prepared {
     ///
     /// [`Bvh::first_entry`]: super::bvh::Bvh::first_entry
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn cast_projected<S: Shade>(
         &self,
         tets: &[[u32; 4]],
         shade: &S,
         front: &Front,
         ctx: &RayCtx,
-        (grid, i, j): (Option<&EntryGrid>, usize, usize),
+        (grid, shared): (Option<&EntryGrid>, Option<&SharedFrame>),
+        (i, j): (usize, usize),
         seed: &mut u32,
     ) -> (Segment, RayStats) {
-        let fr = Frame2::new(ctx, self.max_abs);
+        let fr = Frame2::new(ctx, self.max_abs, shared);
         let mut acc = Segment::default();
         let mut stats = RayStats::default();
         let mut t_min = f64::NEG_INFINITY;
@@ -211,7 +290,7 @@ impl Prepared {
             let mut g = tets[tet];
             let mut fin = bf;
             let mut ids = FACE_VERTS[bf].map(|k| g[k]);
-            let mut lv = ids.map(|v| fr.local(&self.verts[v as usize]));
+            let mut lv = ids.map(|v| fr.local(&self.verts, v));
             // |product| of the edge opposite each vertex of the entry triangle.
             let mut opp: [f64; 3] = std::array::from_fn(|k| {
                 let (a, b) = ((k + 1) % 3, (k + 2) % 3);
@@ -225,7 +304,7 @@ impl Prepared {
                     break 'rays;
                 }
                 let id = g[fin];
-                let ld = fr.local(&self.verts[id as usize]);
+                let ld = fr.local(&self.verts, id);
                 let (pa, ba) = fr.side(self, ctx, (ids[0], &lv[0]), (id, &ld), w);
                 let (pb, bb) = fr.side(self, ctx, (ids[1], &lv[1]), (id, &ld), w);
                 // k: the entry vertex the exit face drops (ABD drops C, BCD A, CAD B).

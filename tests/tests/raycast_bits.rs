@@ -201,3 +201,54 @@ fn projected_walk_matches_the_reference_walk() {
         bad.join("\n")
     );
 }
+
+/// The projected walk shades its segments a queue at a time; a ray that turns opaque part way
+/// through a queue must stop where compositing segment by segment stops it, counting the same
+/// cell steps. With a transfer function 10⁴ times as opaque as `default` most rays stop after a
+/// few cells; the projected walk's step counts and images match the reference walk's (which
+/// composites each segment as it goes).
+#[test]
+fn opaque_rays_stop_where_the_reference_walk_stops_them() {
+    let mut tf = TransferFunction::preset("default").unwrap();
+    for p in &mut tf.points {
+        p.tau *= 1e4;
+    }
+    let clear = TransferFunction::preset("default").unwrap();
+    for (name, tets) in [("spx", 13_000), ("torus", 20_000)] {
+        let mesh = datasets_gen::generate(name, Some(tets), 1).unwrap();
+        for ((az, el), proj) in [
+            ((30.0, 20.0), Projection::Ortho),
+            ((45.0, 35.0), Projection::Persp),
+        ] {
+            let case = format!("{name} {az},{el} {proj:?}");
+            let cam = Camera::new(&mesh.bbox(), View::new(az, el), proj, 96, 80);
+            let mut rc = RayCaster::new("partial", "raycast");
+            rc.prepare(&mesh, &clear).unwrap();
+            let (_, cs) = rc.render_f64(&mesh, &cam).unwrap();
+            rc.prepare(&mesh, &tf).unwrap();
+            rc.set_projected_walk(false);
+            let (want, ws) = rc.render_f64(&mesh, &cam).unwrap();
+            rc.set_projected_walk(true);
+            let (got, gs) = rc.render_f64(&mesh, &cam).unwrap();
+            assert!(
+                2 * ws.steps < cs.steps,
+                "{case}: the opaque TF should stop rays early ({} of {} steps)",
+                ws.steps,
+                cs.steps
+            );
+            assert_eq!(gs.steps, ws.steps, "{case}: other cell steps");
+            assert_eq!(gs.reentries, ws.reentries, "{case}: other re-entries");
+            assert_eq!(gs.missed, 0, "{case}: a hole");
+            let max = got
+                .iter()
+                .zip(&want)
+                .flat_map(|(a, b)| (0..4).map(move |c| (a[c] - b[c]).abs()))
+                .fold(0.0, f64::max);
+            assert!(max <= 1e-9, "{case}: max |diff| {max:.3e}");
+            println!(
+                "{case}: {} of {} steps, max |diff| {max:.3e}",
+                gs.steps, cs.steps
+            );
+        }
+    }
+}

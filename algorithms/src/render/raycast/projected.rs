@@ -36,7 +36,7 @@ use rayon::prelude::*;
 use super::bvh::Front;
 use super::entry::EntryGrid;
 use super::predicate::RayCtx;
-use super::shade::Shade;
+use super::shade::{Queue, Shade, QUEUE};
 use super::{Prepared, RayStats, Vert, TERMINATE_T};
 use crate::mesh::{BOUNDARY, FACE_VERTS};
 use crate::optics::{composite_under, Segment};
@@ -277,6 +277,9 @@ impl Prepared {
                 .first_entry(self, tets, front, ctx, t_min, exclude, seed),
         };
         let mut found = entry(t_min, exclude, *seed);
+        // Segments wait in `q` and are shaded a queue at a time, then composited in order.
+        let mut q = Queue::<S::End>::default();
+        let mut marks = [[0u64; 4]; QUEUE];
         'rays: while let Some((bt, bf, mut t_in, s_in, leaf)) = found.take() {
             if first {
                 *seed = leaf;
@@ -300,6 +303,9 @@ impl Prepared {
             loop {
                 stats.steps += 1;
                 if stats.steps as usize > self.max_steps {
+                    if drain(shade, &mut q, &marks, &mut acc, &mut stats, &fr, ctx) {
+                        break 'rays;
+                    }
                     stats.lost += 1;
                     break 'rays;
                 }
@@ -345,14 +351,26 @@ impl Prepared {
                 let l = (t_out - t_in) * self.inv_l;
                 let e_out = shade.end(s);
                 if l > 0.0 {
-                    composite_under(&mut acc, shade.segment(&e_in, &e_out, l));
-                    if 1.0 - acc.alpha < TERMINATE_T {
+                    let n = q.n;
+                    (q.f[n], q.b[n], q.l[n]) = (e_in, e_out, l);
+                    marks[n] = [
+                        stats.steps,
+                        stats.fallbacks,
+                        fr.fallbacks.get(),
+                        ctx.fallbacks.get(),
+                    ];
+                    q.n += 1;
+                    if q.n == QUEUE && drain(shade, &mut q, &marks, &mut acc, &mut stats, &fr, ctx)
+                    {
                         break 'rays;
                     }
                 }
                 let fz = local_index(&g, iz);
                 let nb = if fz < 4 { self.next[tet][fz] } else { BOUNDARY };
                 if nb == BOUNDARY {
+                    if drain(shade, &mut q, &marks, &mut acc, &mut stats, &fr, ctx) {
+                        break 'rays;
+                    }
                     t_min = t_out;
                     exclude = if fz < 4 {
                         (4 * tet + fz) as u32
@@ -378,6 +396,38 @@ impl Prepared {
         stats.filter_fallbacks = ctx.fallbacks.get() + fr.fallbacks.get();
         (acc, stats)
     }
+}
+
+/// Shades the queued segments and composites them in order; `true` when the ray terminated on
+/// one of them, with the counters put back to what they were when that segment was queued
+/// (`marks`: steps, walk fallbacks and the two predicates' filter fallbacks), so that a ray
+/// counts the steps it would have counted compositing segment by segment.
+#[inline(always)]
+fn drain<S: Shade>(
+    shade: &S,
+    q: &mut Queue<S::End>,
+    marks: &[[u64; 4]; QUEUE],
+    acc: &mut Segment,
+    stats: &mut RayStats,
+    fr: &Frame2,
+    ctx: &RayCtx,
+) -> bool {
+    if q.n == 0 {
+        return false;
+    }
+    let out = shade.segments(q);
+    let n = std::mem::take(&mut q.n);
+    for (k, m) in marks.iter().enumerate().take(n) {
+        composite_under(acc, out.get(k));
+        if 1.0 - acc.alpha < TERMINATE_T {
+            stats.steps = m[0];
+            stats.fallbacks = m[1];
+            fr.fallbacks.set(m[2]);
+            ctx.fallbacks.set(m[3]);
+            return true;
+        }
+    }
+    false
 }
 
 /// No exit face is consistent (a flat cell, or signs from a degenerate tie): the face whose

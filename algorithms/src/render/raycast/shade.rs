@@ -7,16 +7,65 @@
 //! function's pieces are found from a bucket table and evaluated with precomputed slopes, and a
 //! segment calls `expm1` once.
 
-use crate::optics::{Exact, Integrator, Partial, Segment};
+use crate::optics::{gamma_of_depth, Exact, Integrator, Partial, Segment};
 use crate::tf::TransferFunction;
 
 /// A per-segment integrator as the walk calls it.
 pub(super) trait Shade: Sync {
     /// The transfer function's values at one crossing.
-    type End: Copy;
+    type End: Copy + Default;
     fn end(&self, s: f64) -> Self::End;
     /// The segment between two crossings of optical length `l > 0`.
     fn segment(&self, front: &Self::End, back: &Self::End, l: f64) -> Segment;
+    /// The segments of the first `q.n` queued pairs of crossings, each what
+    /// [`Shade::segment`] gives for it, bit for bit (`partial` computes them lane-wise).
+    #[inline(always)]
+    fn segments(&self, q: &Queue<Self::End>) -> Lanes {
+        let mut out = Lanes::default();
+        for k in 0..q.n {
+            let seg = self.segment(&q.f[k], &q.b[k], q.l[k]);
+            out.set(k, seg);
+        }
+        out
+    }
+}
+
+/// Segments a ray queues before it shades them at once ([`Shade::segments`]).
+pub(super) const QUEUE: usize = 8;
+
+/// A ray's queued segments: their crossings and optical lengths.
+#[derive(Clone, Copy, Default)]
+pub(super) struct Queue<E> {
+    pub(super) f: [E; QUEUE],
+    pub(super) b: [E; QUEUE],
+    pub(super) l: [f64; QUEUE],
+    pub(super) n: usize,
+}
+
+/// Shaded segments, lane by lane: colour (premultiplied) and opacity.
+#[derive(Clone, Copy, Default)]
+pub(super) struct Lanes {
+    pub(super) rgb: [[f64; QUEUE]; 3],
+    pub(super) alpha: [f64; QUEUE],
+}
+
+impl Lanes {
+    #[inline(always)]
+    fn set(&mut self, k: usize, seg: Segment) {
+        for c in 0..3 {
+            self.rgb[c][k] = seg.rgb[c];
+        }
+        self.alpha[k] = seg.alpha;
+    }
+
+    /// Segment `k`.
+    #[inline(always)]
+    pub(super) fn get(&self, k: usize) -> Segment {
+        Segment {
+            rgb: [self.rgb[0][k], self.rgb[1][k], self.rgb[2][k]],
+            alpha: self.alpha[k],
+        }
+    }
 }
 
 /// The integrator a ray caster was prepared with.
@@ -42,7 +91,7 @@ impl Shader {
 }
 
 /// A crossing's scalar and the transfer function's colour and extinction there.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Default)]
 pub(super) struct Eval {
     s: f64,
     c: [f64; 3],
@@ -148,6 +197,12 @@ impl LinearTf {
 
 impl Shade for RcPartial {
     type End = Eval;
+    /// [`RcPartial::segment`] lane-wise, compiled for the best instruction set of the CPU
+    /// (x86-64-v3 where present, by `pulp`'s dispatch).
+    #[inline(always)]
+    fn segments(&self, q: &Queue<Eval>) -> Lanes {
+        pulp::Arch::new().dispatch(PartialLanes { rc: self, q })
+    }
     #[inline(always)]
     fn end(&self, s: f64) -> Eval {
         let (c, tau) = self.tf.eval(s);
@@ -168,8 +223,70 @@ impl Shade for RcPartial {
         let (fa, fb) = (f.tau * l, b.tau * l);
         let zeta = exp_neg(0.5 * (fa + fb));
         let alpha = 1.0 - zeta;
-        let pmz = (self.p.table().lookup(fa, fb) - zeta).clamp(0.0, alpha);
+        let pmz = clamp(self.p.table().lookup(fa, fb) - zeta, 0.0, alpha);
         Segment::from_partial(f.c, b.c, alpha, pmz)
+    }
+}
+
+/// [`RcPartial::segment`] over a queue as a `pulp` operation. Its passes repeat `segment`'s
+/// operations one for one (Rust contracts nothing into an FMA), so each lane has `segment`'s
+/// bits: the validity test becomes a select (invalid lanes compute on zeros and give zeros),
+/// and the table look-ups, which vectorise into slow gathers, have a scalar pass of their own.
+/// Lanes past `q.n` are computed and ignored.
+struct PartialLanes<'a> {
+    rc: &'a RcPartial,
+    q: &'a Queue<Eval>,
+}
+
+impl pulp::WithSimd for PartialLanes<'_> {
+    type Output = Lanes;
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) -> Lanes {
+        let q = self.q;
+        // 0. The queue's crossings, transposed into lanes (so that the passes vectorise).
+        let mut sf = [0.0; QUEUE];
+        let mut sb = [0.0; QUEUE];
+        let mut tf = [0.0; QUEUE];
+        let mut tb = [0.0; QUEUE];
+        let mut cf = [[0.0; QUEUE]; 3];
+        let mut cb = [[0.0; QUEUE]; 3];
+        for k in 0..QUEUE {
+            let (f, b) = (&q.f[k], &q.b[k]);
+            (sf[k], sb[k], tf[k], tb[k]) = (f.s, b.s, f.tau, b.tau);
+            for c in 0..3 {
+                cf[c][k] = f.c[c];
+                cb[c][k] = b.c[c];
+            }
+        }
+        // 1. The optical depths of the ends, ζ, α and the Ψ table's coordinates.
+        let mut ok = [0.0; QUEUE];
+        let (mut zeta, mut alpha) = ([0.0; QUEUE], [0.0; QUEUE]);
+        let (mut gf, mut gb) = ([0.0; QUEUE], [0.0; QUEUE]);
+        for k in 0..QUEUE {
+            let valid = sf[k].abs() < f64::INFINITY && sb[k].abs() < f64::INFINITY;
+            ok[k] = if valid { 1.0 } else { 0.0 };
+            let l = if valid { q.l[k] } else { 0.0 };
+            let (fa, fb) = (tf[k] * l, tb[k] * l);
+            zeta[k] = exp_neg(0.5 * (fa + fb));
+            alpha[k] = 1.0 - zeta[k];
+            gf[k] = gamma_of_depth(fa);
+            gb[k] = gamma_of_depth(fb);
+        }
+        // 2. The look-ups.
+        let table = self.rc.p.table();
+        let psi: [f64; QUEUE] = std::array::from_fn(|k| table.lookup_gamma(gf[k], gb[k]));
+        // 3. Ψ − ζ and the segment.
+        let mut out = Lanes::default();
+        for k in 0..QUEUE {
+            let valid = ok[k] != 0.0;
+            let pmz = clamp(psi[k] - zeta[k], 0.0, alpha[k]);
+            for c in 0..3 {
+                let v = cf[c][k] * alpha[k] + (cb[c][k] - cf[c][k]) * pmz;
+                out.rgb[c][k] = if valid { v } else { 0.0 };
+            }
+            out.alpha[k] = if valid { alpha[k] } else { 0.0 };
+        }
+        out
     }
 }
 
@@ -198,25 +315,44 @@ impl Shade for Box<dyn Integrator> {
     }
 }
 
+/// `x.clamp(lo, hi)` (the same value for every `x`, NaN included) without its check of
+/// `lo ≤ hi`, whose panic path keeps the lanes from vectorising.
+#[inline(always)]
+fn clamp(x: f64, lo: f64, hi: f64) -> f64 {
+    let x = if x < lo { lo } else { x };
+    if x > hi {
+        hi
+    } else {
+        x
+    }
+}
+
 /// `exp(−g)` for `g ≥ 0` (NaN gives NaN), within 3 ulp of libm's: `g = k·ln 2 + r` with
 /// `|r| ≤ ln 2 / 2` (ln 2 split in a high part with 32 significant bits, exact times `k`, and a
 /// low part), `e^{−r}` by its Taylor polynomial of degree 13 (the remainder `r¹⁴/14!` is below
 /// 2e-19) in Estrin's scheme, and `2^{−k}` assembled in the exponent bits. Inline and without
-/// a call or a division, for the ray caster's one exponential a segment.
+/// a call, a division or a branch (the out-of-range inputs are selects), for the ray caster's one
+/// exponential a segment; [`PartialLanes`] vectorises it.
 #[inline(always)]
 pub(super) fn exp_neg(g: f64) -> f64 {
     const LN2_HI: f64 = 0.693_147_180_369_123_8; // 0x3FE62E42FEE00000
     const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
     const INV_LN2: f64 = std::f64::consts::LOG2_E;
-    if g.is_nan() || g >= 708.0 {
-        // exp(−708) ≈ 3e-308; beyond it, and for +∞, the result is 0 to the pixel (NaN stays).
-        return if g.is_nan() { g } else { 0.0 };
-    }
-    let g = g.max(0.0);
-    let k = (g * INV_LN2 + 0.5) as i64; // round to nearest (g ≥ 0)
-    let kf = k as f64;
+    /// 2⁵²: `t + 2⁵² − 2⁵²` rounds `0 ≤ t < 2⁵¹` to an integer, exactly.
+    const TWO52: f64 = 4_503_599_627_370_496.0;
+    // exp(−708) ≈ 3e-308; beyond it, and for +∞, the result is 0 to the pixel (NaN stays): those
+    // lanes compute on 0 and are replaced at the end.
+    // (Each test a select of its own: `||`, nested `else if` or `max` keep LLVM from
+    // vectorising the function.)
+    let (nan, big) = (g.is_nan(), g >= 708.0);
+    let g0 = if (g < 708.0) & (g > 0.0) { g } else { 0.0 };
+    // k = ⌊g/ln 2 + 1/2⌋ (round to nearest, g ≥ 0): the integer nearest `t`, less one where that
+    // is above `t` (what `t as i64` gives, without a conversion AVX2 lacks).
+    let t = g0 * INV_LN2 + 0.5;
+    let near = (t + TWO52) - TWO52;
+    let kf = if near > t { near - 1.0 } else { near };
     // −r = −(g − k·ln 2), so e^{−g} = 2^{−k}·e^{x}, x = k·ln 2 − g ∈ [−0.35, 0.35].
-    let x = (kf * LN2_HI - g) + kf * LN2_LO;
+    let x = (kf * LN2_HI - g0) + kf * LN2_LO;
     // Taylor coefficients 1/n!, n = 0..13, in Estrin's scheme.
     const C: [f64; 14] = [
         1.0,
@@ -250,13 +386,58 @@ pub(super) fn exp_neg(g: f64) -> f64 {
     let lo = q0 + q1 * x4;
     let hi = q2 + p1213 * x4;
     let e = lo + hi * x8;
-    // 2^{−k}, k ∈ [0, 1022]: a normal number.
-    e * f64::from_bits(((1023 - k) as u64) << 52)
+    // 2^{−k}, k ∈ [0, 1022]: a normal number; k is the low bits of kf + 2⁵².
+    let k = (kf + TWO52).to_bits() - TWO52.to_bits();
+    let r = e * f64::from_bits((1023 - k) << 52);
+    let r = if big { 0.0 } else { r };
+    if nan {
+        g
+    } else {
+        r
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `partial`'s lane-wise segments are `segment`'s, bit for bit, on every lane of full and
+    /// part-filled queues: crossings over the whole TF range and beyond it, thin and thick
+    /// segments (optical depths from 1e-12 to past exp's range), NaN and infinite scalars.
+    #[test]
+    fn partial_segments_are_the_scalar_segments_bit_for_bit() {
+        let tf = TransferFunction::preset("default").unwrap();
+        let Shader::Partial(rc) = Shader::new("partial", &tf).unwrap() else {
+            panic!("partial is RcPartial");
+        };
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let odd = [f64::NAN, f64::INFINITY, -f64::INFINITY, -0.5, 1.5, 0.0, 1.0];
+        for round in 0..4000 {
+            let mut q = Queue::<Eval>::default();
+            q.n = 1 + round % QUEUE;
+            for k in 0..QUEUE {
+                let mut s = [next(), next()];
+                if round % 7 == 0 {
+                    s[k % 2] = odd[(round / 7 + k) % odd.len()];
+                }
+                q.f[k] = rc.end(s[0]);
+                q.b[k] = rc.end(s[1]);
+                q.l[k] = 10f64.powf(-12.0 + 15.0 * next());
+            }
+            let lanes = rc.segments(&q);
+            for k in 0..q.n {
+                let (a, b) = (lanes.get(k), rc.segment(&q.f[k], &q.b[k], q.l[k]));
+                let bits = |g: Segment| [g.rgb[0], g.rgb[1], g.rgb[2], g.alpha].map(f64::to_bits);
+                assert_eq!(bits(a), bits(b), "round {round}, lane {k}");
+            }
+        }
+    }
 
     #[test]
     fn exp_neg_is_within_3_ulp_of_libm() {
@@ -276,6 +457,7 @@ mod tests {
             check(g);
         }
         assert!(worst <= 3.0, "{worst} ulp");
+        assert_eq!(exp_neg(-1.0), 1.0);
         assert_eq!(exp_neg(0.0), 1.0);
         assert_eq!(exp_neg(f64::INFINITY), 0.0);
         assert_eq!(exp_neg(800.0), 0.0);

@@ -419,8 +419,10 @@ mod tests {
         };
         let odd = [f64::NAN, f64::INFINITY, -f64::INFINITY, -0.5, 1.5, 0.0, 1.0];
         for round in 0..4000 {
-            let mut q = Queue::<Eval>::default();
-            q.n = 1 + round % QUEUE;
+            let mut q = Queue::<Eval> {
+                n: 1 + round % QUEUE,
+                ..Default::default()
+            };
             for k in 0..QUEUE {
                 let mut s = [next(), next()];
                 if round % 7 == 0 {

@@ -507,6 +507,44 @@ impl PsiTable {
         v0 + (v1 - v0) * tj
     }
 
+    /// [`PsiTable::lookup_gamma`] over `N` lanes, with the same operations lane by lane (so the
+    /// same bits: `⌊x⌋` where it truncates, equal for `x ≥ 0`), arranged so that the
+    /// coordinates and the blend vectorise; the four loads of each lane are a scalar pass of
+    /// their own (gathers were slower than scalar loads on the CPUs measured).
+    #[inline(always)]
+    pub fn lookup_gamma_lanes<const N: usize>(&self, gf: &[f64; N], gb: &[f64; N]) -> [f64; N] {
+        let n = self.n;
+        let (m, top) = ((n - 1) as f64, (n - 2) as f64);
+        let coord = |g: f64| -> (f64, f64) {
+            let x = if g.is_nan() {
+                0.0
+            } else {
+                g.clamp(0.0, 1.0) * m
+            };
+            let i = x.floor().min(top);
+            (i, x - i)
+        };
+        let (mut fi, mut ti, mut fj, mut tj) = ([0.0; N], [0.0; N], [0.0; N], [0.0; N]);
+        for k in 0..N {
+            (fi[k], ti[k]) = coord(gf[k]);
+            (fj[k], tj[k]) = coord(gb[k]);
+        }
+        let d = &self.data;
+        let mut v = [[0.0f64; N]; 4];
+        for k in 0..N {
+            let (i, j) = (fi[k] as usize, fj[k] as usize);
+            v[0][k] = d[j * n + i] as f64;
+            v[1][k] = d[j * n + i + 1] as f64;
+            v[2][k] = d[(j + 1) * n + i] as f64;
+            v[3][k] = d[(j + 1) * n + i + 1] as f64;
+        }
+        std::array::from_fn(|k| {
+            let v0 = v[0][k] + (v[1][k] - v[0][k]) * ti[k];
+            let v1 = v[2][k] + (v[3][k] - v[2][k]) * ti[k];
+            v0 + (v1 - v0) * tj[k]
+        })
+    }
+
     /// Ψ for the end optical depths `τ_f·l`, `τ_b·l` (≥ 0).
     #[inline]
     pub fn lookup(&self, tau_f_l: f64, tau_b_l: f64) -> f64 {

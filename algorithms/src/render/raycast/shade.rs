@@ -274,7 +274,7 @@ impl pulp::WithSimd for PartialLanes<'_> {
         }
         // 2. The look-ups.
         let table = self.rc.p.table();
-        let psi: [f64; QUEUE] = std::array::from_fn(|k| table.lookup_gamma(gf[k], gb[k]));
+        let psi = table.lookup_gamma_lanes(&gf, &gb);
         // 3. Ψ − ζ and the segment.
         let mut out = Lanes::default();
         for k in 0..QUEUE {

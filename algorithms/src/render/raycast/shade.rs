@@ -109,20 +109,28 @@ pub(super) struct RcPartial {
 const BUCKETS: usize = 256;
 
 /// A piecewise-linear transfer function laid out for evaluation without a search or a
-/// division: per piece its start, its value there and its slope, and per bucket of
-/// `[s₀, s_last]` the piece that holds the previous bucket's start (so that rounding of the
-/// bucket can only leave the walk forward to go, one or two steps). The same function as
-/// [`TransferFunction::eval`] up to the rounding of `a + (s − s_a)·slope` against
+/// division: per piece its start, the next piece's start, its value there and its slope, and
+/// per bucket of `[s₀, s_last]` the piece that holds the previous bucket's start (so that
+/// rounding of the bucket can only leave the walk forward to go, one or two steps). The same
+/// function as [`TransferFunction::eval`] up to the rounding of `a + (s − s_a)·slope` against
 /// `a + (b − a)·((s − s_a)/(s_b − s_a))`.
 pub(super) struct LinearTf {
-    /// Point positions, then +∞.
-    s: Vec<f64>,
-    /// Per point: rgb and τ there; per piece k (from point k to k + 1): their slopes.
-    val: Vec<[f64; 4]>,
-    slope: Vec<[f64; 4]>,
-    bucket: Vec<u32>,
+    /// Per point: its piece (to the next point; the last one's ends at +∞).
+    pieces: Vec<Piece>,
+    /// A fixed array, so that the look-up needs no bounds check.
+    bucket: Box<[u32; BUCKETS]>,
     s0: f64,
     inv_w: f64,
+}
+
+/// One piece of a [`LinearTf`], in one record: where it starts and ends, rgb and τ at its start
+/// and their slopes.
+#[derive(Clone, Copy)]
+struct Piece {
+    s: f64,
+    s_next: f64,
+    val: [f64; 4],
+    slope: [f64; 4],
 }
 
 impl LinearTf {
@@ -130,32 +138,32 @@ impl LinearTf {
         let p = &tf.points;
         let n = p.len();
         let val: Vec<[f64; 4]> = p.iter().map(|q| [q.rgb[0], q.rgb[1], q.rgb[2], q.tau]).collect();
-        let slope: Vec<[f64; 4]> = (0..n)
+        let pieces = (0..n)
             .map(|k| {
-                if k + 1 < n && p[k + 1].s > p[k].s {
+                let slope = if k + 1 < n && p[k + 1].s > p[k].s {
                     let ds = p[k + 1].s - p[k].s;
                     std::array::from_fn(|c| (val[k + 1][c] - val[k][c]) / ds)
                 } else {
                     [0.0; 4]
+                };
+                Piece {
+                    s: p[k].s,
+                    s_next: p.get(k + 1).map_or(f64::INFINITY, |q| q.s),
+                    val: val[k],
+                    slope,
                 }
             })
             .collect();
-        let mut s: Vec<f64> = p.iter().map(|q| q.s).collect();
-        s.push(f64::INFINITY);
         let (s0, s1) = (p[0].s, p[n - 1].s);
         let w = (s1 - s0) / BUCKETS as f64;
         let inv_w = if w > 0.0 && w.is_finite() { 1.0 / w } else { 0.0 };
         // The last point at or before the previous bucket's start.
-        let bucket = (0..BUCKETS)
-            .map(|b| {
-                let lo = s0 + (b.saturating_sub(1)) as f64 * w;
-                (0..n).rev().find(|&k| p[k].s <= lo).unwrap_or(0) as u32
-            })
-            .collect();
+        let bucket = Box::new(std::array::from_fn(|b| {
+            let lo = s0 + (b.saturating_sub(1)) as f64 * w;
+            (0..n).rev().find(|&k| p[k].s <= lo).unwrap_or(0) as u32
+        }));
         LinearTf {
-            s,
-            val,
-            slope,
+            pieces,
             bucket,
             s0,
             inv_w,
@@ -166,22 +174,24 @@ impl LinearTf {
     /// point's).
     #[inline(always)]
     fn eval(&self, s: f64) -> ([f64; 3], f64) {
-        let n = self.val.len();
+        let n = self.pieces.len();
         let last = n - 1;
         let k = if s.is_nan() || s <= self.s0 || n == 1 {
             return self.point(0);
-        } else if s >= self.s[last] {
+        } else if s >= self.pieces[last].s {
             return self.point(last);
         } else {
-            // s ∈ (s₀, s_last): the bucket is in range; walk forward to the piece of s.
-            let b = (((s - self.s0) * self.inv_w) as usize).min(BUCKETS - 1);
-            let mut k = self.bucket[b] as usize;
-            while s >= self.s[k + 1] {
+            // s ∈ (s₀, s_last): the bucket is in range (0 ≤ x ≤ BUCKETS, so `as i32` is the
+            // `as usize` it replaces, in one conversion); walk forward to the piece of s.
+            let b = (((s - self.s0) * self.inv_w) as i32).clamp(0, BUCKETS as i32 - 1);
+            let mut k = self.bucket[b as usize] as usize;
+            while s >= self.pieces[k].s_next {
                 k += 1;
             }
             k
         };
-        let (v, m, d) = (&self.val[k], &self.slope[k], s - self.s[k]);
+        let pc = &self.pieces[k];
+        let (v, m, d) = (&pc.val, &pc.slope, s - pc.s);
         (
             [v[0] + d * m[0], v[1] + d * m[1], v[2] + d * m[2]],
             v[3] + d * m[3],
@@ -190,7 +200,7 @@ impl LinearTf {
 
     #[inline]
     fn point(&self, k: usize) -> ([f64; 3], f64) {
-        let v = &self.val[k];
+        let v = &self.pieces[k].val;
         ([v[0], v[1], v[2]], v[3])
     }
 }

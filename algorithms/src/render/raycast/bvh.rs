@@ -342,6 +342,13 @@ pub(super) struct Front {
     pub(super) faces: Vec<bool>,
 }
 
+impl Front {
+    /// Bytes the front holds.
+    pub(super) fn bytes(&self) -> usize {
+        self.nodes.len() + self.faces.len()
+    }
+}
+
 impl Bvh {
     /// Which boundary faces a ray of `cam` can enter through, conservatively.
     ///

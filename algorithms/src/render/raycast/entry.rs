@@ -44,6 +44,11 @@ pub(super) struct EntryGrid {
 }
 
 impl EntryGrid {
+    /// Bytes the grid holds.
+    pub(super) fn bytes(&self) -> usize {
+        std::mem::size_of_val(self.start.as_slice()) + std::mem::size_of_val(self.items.as_slice())
+    }
+
     /// The grid of `cam`'s frame, or `None` where the projection cannot be trusted (a
     /// perspective eye with mesh behind it: `front` then keeps every face and so does the BVH).
     pub(super) fn new(

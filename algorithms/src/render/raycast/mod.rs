@@ -149,6 +149,9 @@ pub struct RayStats {
     pub missed: u64,
     /// Edge predicates the f64 filter could not decide, computed by the exact orient3d.
     pub filter_fallbacks: u64,
+    /// Bytes of the frame's scratch: the camera's enterable faces, the entry grid and the
+    /// shared frame's vertex table (0 per ray; the frame's total).
+    pub scratch_bytes: u64,
 }
 
 impl std::ops::AddAssign for RayStats {
@@ -159,6 +162,7 @@ impl std::ops::AddAssign for RayStats {
         self.reentries += o.reentries;
         self.missed += o.missed;
         self.filter_fallbacks += o.filter_fallbacks;
+        self.scratch_bytes += o.scratch_bytes;
     }
 }
 
@@ -262,6 +266,7 @@ impl Renderer for RayCaster {
                 ("reentries", stats.reentries as f64),
                 ("missed_rays", stats.missed as f64),
                 ("filter_fallbacks", stats.filter_fallbacks as f64),
+                ("scratch_bytes", stats.scratch_bytes as f64),
             ],
         })
     }
@@ -314,7 +319,11 @@ impl Prepared {
             Projection::Ortho if projected => SharedFrame::new(&self.verts, camera.pixel_ray(0, 0).dir),
             _ => None,
         };
-        px.par_chunks_mut(w * TILE)
+        let scratch = front.bytes()
+            + grid.as_ref().map_or(0, |g| g.bytes())
+            + shared.as_ref().map_or(0, |f| f.bytes());
+        let mut stats = px
+            .par_chunks_mut(w * TILE)
             .enumerate()
             .map(|(b, band)| {
                 let mut rs = RayStats::default();
@@ -351,6 +360,8 @@ impl Prepared {
             .reduce(RayStats::default, |mut a, b| {
                 a += b;
                 a
-            })
+            });
+        stats.scratch_bytes = scratch as u64;
+        stats
     }
 }

@@ -116,6 +116,11 @@ impl SharedFrame {
         Some(SharedFrame { d, f1, f2, verts })
     }
 
+    /// Bytes the frame's vertex table holds.
+    pub(super) fn bytes(&self) -> usize {
+        std::mem::size_of_val(self.verts.as_slice())
+    }
+
 }
 
 impl<'a> Frame2<'a> {

@@ -11,6 +11,11 @@
 //! [`Camera::ray_at`] on the image plane), so a face the ray crosses has the centre in its
 //! projected triangle, up to the rounding of the projection (~1e-13 px); boxes are widened by
 //! [`PAD`] px to cover it.
+//!
+//! Each face also carries a bound of the depth at which any ray can cross it, so that the search
+//! for a re-entry beyond a depth passes over the faces wholly in front of it (on a convex mesh,
+//! all of them) without their crossing test. The bound is conservative, so every face the test
+//! would have accepted is still tested: the same entries, the same bits.
 
 use rayon::prelude::*;
 
@@ -25,7 +30,8 @@ const CELL: usize = 8;
 /// Widening of the projected boxes in pixels (their rounding is ~1e-13 px, f32 storage ~1e-4).
 const PAD: f64 = 0.01;
 
-/// A face in a cell's list: its leaf index in the BVH and its projected box (pixels).
+/// A face in a cell's list: its leaf index in the BVH, its projected box (pixels) and a bound
+/// of the depth along the ray at which a ray of the frame can cross it ([`depth_bound`]).
 #[derive(Clone, Copy)]
 struct Item {
     leaf: u32,
@@ -33,6 +39,36 @@ struct Item {
     x1: f32,
     y0: f32,
     y1: f32,
+    t_max: f32,
+}
+
+/// An upper bound of the depth `(x − o)·d` of any point `x` of the triangle `p` along any ray
+/// `(o, d)` of `cam`, as [`Prepared::cross_face`] computes it, rounded up to f32.
+///
+/// The depth of a point of the triangle is a convex combination of its vertices' (the crossing
+/// is interpolated with non-negative weights). Orthographic rays start on the plane at `2R`
+/// towards the eye and run along `−e` (`e` the unit vector to the eye), so a vertex's depth is
+/// `2R − p·e` (up to the rounding of `r·e` and `u·e`, ~1e-16 of the pixel offsets); perspective
+/// rays start at the eye with unit directions, so it is at most `|p − eye|`. A margin of 1e-6
+/// of the bound plus `4R` covers the rounding of both computations and of the f32 (6e-8
+/// relative). A NaN bound is +∞ (the face is always tested).
+fn depth_bound(cam: &Camera, p: [glam::DVec3; 3]) -> f32 {
+    let t = match cam.projection {
+        Projection::Ortho => p
+            .map(|v| 2.0 * cam.radius - v.dot(cam.to_eye))
+            .into_iter()
+            .fold(f64::NEG_INFINITY, f64::max),
+        Projection::Persp => p
+            .map(|v| (v - cam.eye()).length())
+            .into_iter()
+            .fold(f64::NEG_INFINITY, f64::max),
+    };
+    let t = t + 1e-6 * (t.abs() + 4.0 * cam.radius);
+    if t.is_nan() {
+        f32::INFINITY
+    } else {
+        t as f32
+    }
 }
 
 pub(super) struct EntryGrid {
@@ -78,7 +114,8 @@ impl EntryGrid {
                     return None;
                 }
                 let bf = bvh.faces[i] as usize;
-                let p = FACE_VERTS[bf % 4].map(|k| cam.project(st.verts[tets[bf / 4][k] as usize].p));
+                let pos = FACE_VERTS[bf % 4].map(|k| st.verts[tets[bf / 4][k] as usize].p);
+                let p = pos.map(|v| cam.project(v));
                 let x0 = p[0].0.min(p[1].0).min(p[2].0) - PAD;
                 let x1 = p[0].0.max(p[1].0).max(p[2].0) + PAD;
                 let y0 = p[0].1.min(p[1].1).min(p[2].1) - PAD;
@@ -99,6 +136,7 @@ impl EntryGrid {
                     x1: x1.min(w as f64 + 1.0) as f32,
                     y0: y0.max(-1.0) as f32,
                     y1: y1.min(h as f64 + 1.0) as f32,
+                    t_max: depth_bound(cam, pos),
                 })
             })
             .collect();
@@ -125,6 +163,7 @@ impl EntryGrid {
             x1: -1.0,
             y0: 0.0,
             y1: -1.0,
+            t_max: f32::NEG_INFINITY,
         };
         let mut items = vec![blank; start[nx * ny] as usize];
         for it in boxes.iter().flatten() {
@@ -166,7 +205,7 @@ impl EntryGrid {
         let mut best: Option<(u32, usize, f64, f64, u32)> = None;
         let mut best_t = f64::INFINITY;
         for it in &self.items[self.start[c] as usize..self.start[c + 1] as usize] {
-            if px < it.x0 || px > it.x1 || py < it.y0 || py > it.y1 {
+            if px < it.x0 || px > it.x1 || py < it.y0 || py > it.y1 || (it.t_max as f64) < t_min {
                 continue;
             }
             let bf = bvh.faces[it.leaf as usize];

@@ -43,7 +43,8 @@ struct Item {
 }
 
 /// An upper bound of the depth `(x − o)·d` of any point `x` of the triangle `p` along any ray
-/// `(o, d)` of `cam`, as [`Prepared::cross_face`] computes it, rounded up to f32.
+/// `(o, d)` of `cam`, as [`Prepared::cross_face`] computes it, in f32 (the margin below covers
+/// the conversion's rounding).
 ///
 /// The depth of a point of the triangle is a convex combination of its vertices' (the crossing
 /// is interpolated with non-negative weights). Orthographic rays start on the plane at `2R`

@@ -120,7 +120,6 @@ impl SharedFrame {
     pub(super) fn bytes(&self) -> usize {
         std::mem::size_of_val(self.verts.as_slice())
     }
-
 }
 
 impl<'a> Frame2<'a> {

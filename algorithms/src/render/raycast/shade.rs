@@ -83,6 +83,7 @@ impl Shader {
             "partial" => Shader::Partial(RcPartial {
                 tf: LinearTf::new(tf),
                 p: Partial::new(tf),
+                arch: pulp::Arch::new(),
             }),
             "exact" => Shader::Exact(Exact::new(tf)),
             _ => Shader::Other(i),
@@ -103,6 +104,8 @@ pub(super) struct Eval {
 pub(super) struct RcPartial {
     p: Partial,
     tf: LinearTf,
+    /// The instruction set [`PartialLanes`] runs on, detected once.
+    arch: pulp::Arch,
 }
 
 /// Number of buckets of [`LinearTf`]'s piece index.
@@ -211,7 +214,7 @@ impl Shade for RcPartial {
     /// (x86-64-v3 where present, by `pulp`'s dispatch).
     #[inline(always)]
     fn segments(&self, q: &Queue<Eval>) -> Lanes {
-        pulp::Arch::new().dispatch(PartialLanes { rc: self, q })
+        self.arch.dispatch(PartialLanes { rc: self, q })
     }
     #[inline(always)]
     fn end(&self, s: f64) -> Eval {
@@ -290,6 +293,8 @@ impl pulp::WithSimd for PartialLanes<'_> {
         for k in 0..QUEUE {
             let valid = ok[k] != 0.0;
             let pmz = clamp(psi[k] - zeta[k], 0.0, alpha[k]);
+            // `Segment::from_partial`'s expression, spelled per lane: called per lane, it left
+            // a third more of this pass scalar.
             for c in 0..3 {
                 let v = cf[c][k] * alpha[k] + (cb[c][k] - cf[c][k]) * pmz;
                 out.rgb[c][k] = if valid { v } else { 0.0 };

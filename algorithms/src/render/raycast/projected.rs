@@ -303,7 +303,8 @@ impl Prepared {
                 let (a, b) = ((k + 1) % 3, (k + 2) % 3);
                 fr.side(self, ctx, (ids[a], &lv[a]), (ids[b], &lv[b]), w).0.abs()
             });
-            let mut e_in = shade.end(s_in);
+            let mut piece = u32::MAX;
+            let mut e_in = shade.end_next(s_in, &mut piece);
             loop {
                 stats.steps += 1;
                 if stats.steps as usize > self.max_steps {
@@ -353,7 +354,7 @@ impl Prepared {
                 let s = wn[0] * lx.s + wn[1] * ly.s + wn[2] * ld.s;
                 let t_out = tt.max(t_in);
                 let l = (t_out - t_in) * self.inv_l;
-                let e_out = shade.end(s);
+                let e_out = shade.end_next(s, &mut piece);
                 if l > 0.0 {
                     let n = q.n;
                     (q.f[n], q.b[n], q.l[n]) = (e_in, e_out, l);

@@ -15,6 +15,14 @@ pub(super) trait Shade: Sync {
     /// The transfer function's values at one crossing.
     type End: Copy + Default;
     fn end(&self, s: f64) -> Self::End;
+    /// [`Shade::end`] for the next crossing of a walk, with `hint` carried from its previous
+    /// one (`partial`: the piece of the TF it was in, which the next crossing is usually in
+    /// too). The same value as `end(s)`.
+    #[inline(always)]
+    fn end_next(&self, s: f64, hint: &mut u32) -> Self::End {
+        let _ = hint;
+        self.end(s)
+    }
     /// The segment between two crossings of optical length `l > 0`.
     fn segment(&self, front: &Self::End, back: &Self::End, l: f64) -> Segment;
     /// The segments of the first `q.n` queued pairs of crossings, each what
@@ -177,8 +185,22 @@ impl LinearTf {
     /// point's).
     #[inline(always)]
     fn eval(&self, s: f64) -> ([f64; 3], f64) {
+        self.eval_from(s, &mut 0)
+    }
+
+    /// [`LinearTf::eval`], trying piece `hint` first, which is then set to the piece `s` is in.
+    /// The pieces tile `[s₀, ∞)` (each ends where the next starts), so a piece with
+    /// `start ≤ s < next start` is the one piece the bucket search finds: the same value.
+    #[inline(always)]
+    fn eval_from(&self, s: f64, hint: &mut u32) -> ([f64; 3], f64) {
         let n = self.pieces.len();
         let last = n - 1;
+        if let Some(pc) = self.pieces.get(*hint as usize) {
+            // s > s₀ and s < s_last as below: the hint's piece is not the last one.
+            if *hint as usize != last && pc.s <= s && s < pc.s_next && s > self.s0 {
+                return Self::lerp(pc, s);
+            }
+        }
         let k = if s.is_nan() || s <= self.s0 || n == 1 {
             return self.point(0);
         } else if s >= self.pieces[last].s {
@@ -193,7 +215,13 @@ impl LinearTf {
             }
             k
         };
-        let pc = &self.pieces[k];
+        *hint = k as u32;
+        Self::lerp(&self.pieces[k], s)
+    }
+
+    /// Piece `pc` at `s`: its value at its start plus `(s − start)` times its slope.
+    #[inline(always)]
+    fn lerp(pc: &Piece, s: f64) -> ([f64; 3], f64) {
         let (v, m, d) = (&pc.val, &pc.slope, s - pc.s);
         (
             [v[0] + d * m[0], v[1] + d * m[1], v[2] + d * m[2]],
@@ -219,6 +247,11 @@ impl Shade for RcPartial {
     #[inline(always)]
     fn end(&self, s: f64) -> Eval {
         let (c, tau) = self.tf.eval(s);
+        Eval { s, c, tau }
+    }
+    #[inline(always)]
+    fn end_next(&self, s: f64, hint: &mut u32) -> Eval {
+        let (c, tau) = self.tf.eval_from(s, hint);
         Eval { s, c, tau }
     }
     #[inline(always)]
@@ -452,6 +485,38 @@ mod tests {
                 let (a, b) = (lanes.get(k), rc.segment(&q.f[k], &q.b[k], q.l[k]));
                 let bits = |g: Segment| [g.rgb[0], g.rgb[1], g.rgb[2], g.alpha].map(f64::to_bits);
                 assert_eq!(bits(a), bits(b), "round {round}, lane {k}");
+            }
+        }
+    }
+
+    /// The TF from any hint (the right piece, a wrong one, none) is the TF from the bucket
+    /// search, bit for bit: on `default`, on a TF with a repeated point (an empty piece) and a
+    /// step, and on one point, for values inside, between and beyond the points, NaN and ±∞.
+    #[test]
+    fn tf_from_a_hint_is_the_tf_from_the_search() {
+        let pt = |s: f64, tau: f64| crate::tf::TfPoint {
+            s,
+            rgb: [s, 1.0 - s, 0.5],
+            tau,
+        };
+        let mut stepped = TransferFunction::preset("default").unwrap();
+        stepped.points = vec![pt(0.0, 0.0), pt(0.3, 1.0), pt(0.3, 5.0), pt(0.7, 2.0), pt(1.0, 9.0)];
+        let mut single = stepped.clone();
+        single.points = vec![pt(0.4, 3.0)];
+        for tf in [TransferFunction::preset("default").unwrap(), stepped, single] {
+            let lt = LinearTf::new(&tf);
+            let mut xs: Vec<f64> = (0..=2000).map(|i| -0.1 + 1.2 * i as f64 / 2000.0).collect();
+            xs.extend(tf.points.iter().map(|p| p.s));
+            xs.extend([f64::NAN, f64::INFINITY, -f64::INFINITY, 0.3f64.next_up(), 0.3f64.next_down()]);
+            let bits = |(c, t): ([f64; 3], f64)| [c[0], c[1], c[2], t].map(f64::to_bits);
+            let mut carried = u32::MAX;
+            for &x in &xs {
+                let want = bits(lt.eval(x));
+                assert_eq!(bits(lt.eval_from(x, &mut carried)), want, "{} at {x}", tf.name);
+                for h in 0..lt.pieces.len() as u32 + 2 {
+                    let mut hint = h;
+                    assert_eq!(bits(lt.eval_from(x, &mut hint)), want, "{} at {x}, hint {h}", tf.name);
+                }
             }
         }
     }

@@ -54,16 +54,12 @@ struct Item {
 /// of the bound plus `4R` covers the rounding of both computations and of the f32 (6e-8
 /// relative). A NaN bound is +∞ (the face is always tested).
 fn depth_bound(cam: &Camera, p: [glam::DVec3; 3]) -> f32 {
-    let t = match cam.projection {
-        Projection::Ortho => p
-            .map(|v| 2.0 * cam.radius - v.dot(cam.to_eye))
-            .into_iter()
-            .fold(f64::NEG_INFINITY, f64::max),
-        Projection::Persp => p
-            .map(|v| (v - cam.eye()).length())
-            .into_iter()
-            .fold(f64::NEG_INFINITY, f64::max),
+    let eye = cam.eye();
+    let depth = |v: glam::DVec3| match cam.projection {
+        Projection::Ortho => 2.0 * cam.radius - v.dot(cam.to_eye),
+        Projection::Persp => (v - eye).length(),
     };
+    let t = p.map(depth).into_iter().fold(f64::NEG_INFINITY, f64::max);
     let t = t + 1e-6 * (t.abs() + 4.0 * cam.radius);
     if t.is_nan() {
         f32::INFINITY

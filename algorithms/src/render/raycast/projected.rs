@@ -64,7 +64,7 @@ pub(super) struct Frame2<'a> {
 /// A vertex in a ray's frame: `(p − o)·f1`, `(p − o)·f2`, the depth `(p − o)·d` and the
 /// transfer-function coordinate `s`.
 #[derive(Clone, Copy)]
-pub(super) struct Local {
+struct Local {
     x: f64,
     y: f64,
     z: f64,
@@ -141,8 +141,9 @@ impl<'a> Frame2<'a> {
     /// difference as well (it is the same expression). A vertex is `x̃ = fl(fl(p·f1) − fl(o·f1))`:
     /// the two dot products are within `γ₃·√3·max_abs` and `γ₃·√3·|o|∞` of their real values
     /// (`|f1| = 1` to rounding), and the subtraction adds `u·|x̃|`, so `x̃` is within
-    /// `(γ₃ + u(1 + γ₃))·√3·A ≤ γ₄·√3·A` of `(p − o)·f1`, the bound used above: the products
-    /// are decided with the same bound.
+    /// `(γ₃ + u(1 + γ₃))·√3·A ≤ γ₄·√3·A` of `(p − o)·f1`, the per-coordinate error used above,
+    /// so the derivation holds as it stands. Only `η` can be larger: orthographic origins lie
+    /// ~2R from the centre, so the ray's `ĉ` may differ from the shared direction by ~R·u.
     pub(super) fn new(ray: &RayCtx, max_abs: f64, shared: Option<&'a SharedFrame>) -> Frame2<'a> {
         let c = ray.c;
         let len = c.length();
@@ -308,10 +309,10 @@ impl Prepared {
             loop {
                 stats.steps += 1;
                 if stats.steps as usize > self.max_steps {
-                    if drain(shade, &mut q, &marks, &mut acc, &mut stats, &fr, ctx) {
-                        break 'rays;
+                    // A ray that turns opaque on its queued segments stops before the limit.
+                    if !drain(shade, &mut q, &marks, &mut acc, &mut stats, &fr, ctx) {
+                        stats.lost += 1;
                     }
-                    stats.lost += 1;
                     break 'rays;
                 }
                 let id = g[fin];

@@ -20,6 +20,12 @@ use std::sync::Arc;
 use crate::optics::{PreintTable, PsiTable};
 use crate::tf::TransferFunction;
 
+mod colour;
+mod tf_lines;
+pub use colour::{segment_from_colours, shade_colours, ColourBatch};
+use tf_lines::pieces;
+pub use tf_lines::TfLine;
+
 /// Samples of the transfer-function table.
 pub const TF_SAMPLES: usize = 4096;
 
@@ -30,6 +36,11 @@ pub struct TfTable {
     scale: f32,
     max: f32,
     data: Vec<[f32; 4]>,
+    /// Per sample interval, the line of the TF it lies on (an index into `lines`), or
+    /// `NO_LINE` where a control point is strictly inside it (the table bends there) or τ
+    /// was capped; consecutive intervals of one piece of the TF share their line.
+    piece: Vec<u16>,
+    lines: Vec<TfLine>,
 }
 
 impl TfTable {
@@ -37,13 +48,16 @@ impl TfTable {
         let n = n.max(2);
         // Clamped to ±1e30: the step stays finite and the bounds survive f32.
         let (lo, hi) = tf.table_domain();
-        let data = (0..n)
+        let at = |i: usize| {
+            if i == n - 1 {
+                hi
+            } else {
+                lo + (hi - lo) * i as f64 / (n - 1) as f64
+            }
+        };
+        let data: Vec<[f32; 4]> = (0..n)
             .map(|i| {
-                let s = if i == n - 1 {
-                    hi
-                } else {
-                    lo + (hi - lo) * i as f64 / (n - 1) as f64
-                };
+                let s = at(i);
                 let (c, tau) = tf.eval(s);
                 // τ beyond f32 range would interpolate to inf − inf = NaN; any τ·l above ~100 is
                 // opaque anyway, so cap it (colours are validated to be finite).
@@ -55,11 +69,14 @@ impl TfTable {
                 ]
             })
             .collect();
+        let (piece, lines) = pieces(tf, n, at);
         TfTable {
             lo: lo as f32,
             scale: ((n - 1) as f64 / (hi - lo)) as f32,
             max: (n - 1) as f32,
             data,
+            piece,
+            lines,
         }
     }
 

@@ -1,0 +1,221 @@
+//! `partial` from colours: the batch kernel for fragments whose transfer function was already
+//! evaluated at both ends.
+//!
+//! `cpu-pt` takes each tet's piece of the TF as a line ([`TfTable::line_over`]) when the tet's
+//! scalars lie on one piece, and then gives each fragment its colours `c0 + c1·s` at both ends
+//! instead of its scalars: the two table look-ups per fragment (eight scattered loads, half
+//! the time of the lane-wise `partial` kernel) become eight multiply-adds in the rasteriser.
+//! [`segment_from_colours`] is `partial`'s [`FastIntegrator::segment`] from that point on, and
+//! [`shade_colours`] is it lane-wise with the same operations (the same bits: a test holds
+//! them equal).
+
+use super::{exp_neg, finite, psi_at, tau_len, PsiTable, BATCH};
+
+/// A batch of segments given by their colours: `[r, g, b, τ]` at the front (`cf`) and back
+/// (`cb`) ends and the length `l`; premultiplied `[r, g, b, α]` out, structure of arrays.
+#[derive(Clone, Debug)]
+pub struct ColourBatch {
+    pub len: usize,
+    pub cf: [[f32; BATCH]; 4],
+    pub cb: [[f32; BATCH]; 4],
+    pub l: [f32; BATCH],
+    pub out: [[f32; BATCH]; 4],
+}
+
+impl Default for ColourBatch {
+    fn default() -> ColourBatch {
+        ColourBatch {
+            len: 0,
+            cf: [[0.0; BATCH]; 4],
+            cb: [[0.0; BATCH]; 4],
+            l: [0.0; BATCH],
+            out: [[0.0; BATCH]; 4],
+        }
+    }
+}
+
+/// `partial`'s segment from the TF's values at its ends (what [`super::FastIntegrator::segment`]
+/// computes once it has looked them up): zero unless `l > 0` and both extinctions are finite.
+#[inline(always)]
+pub fn segment_from_colours(psi: &PsiTable, cf: [f32; 4], cb: [f32; 4], l: f32) -> [f32; 4] {
+    if !(l > 0.0 && finite(cf[3]) && finite(cb[3])) {
+        return [0.0; 4];
+    }
+    let (fa, fb) = (tau_len(cf[3], l), tau_len(cb[3], l));
+    let zeta = exp_neg(0.5 * (fa + fb));
+    let alpha = 1.0 - zeta;
+    let pmz = (super::psi_lookup(psi, fa, fb) - zeta).clamp(0.0, alpha);
+    [
+        cf[0] * alpha + (cb[0] - cf[0]) * pmz,
+        cf[1] * alpha + (cb[1] - cf[1]) * pmz,
+        cf[2] * alpha + (cb[2] - cf[2]) * pmz,
+        alpha,
+    ]
+}
+
+/// Shades the first `len` segments of `b`, lane-wise ([`segment_from_colours`]'s operations, so
+/// its bits), compiled for the best instruction set of the CPU (`pulp`'s dispatch).
+pub fn shade_colours(psi: &PsiTable, b: &mut ColourBatch) {
+    pulp::Arch::new().dispatch(Lanes { psi, b });
+}
+
+struct Lanes<'a> {
+    psi: &'a PsiTable,
+    b: &'a mut ColourBatch,
+}
+
+impl pulp::WithSimd for Lanes<'_> {
+    type Output = ();
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) {
+        colour_lanes(self.psi, self.b)
+    }
+}
+
+/// In three passes: the arithmetic before the Ψ look-up, the look-ups, the blend (as the
+/// lane-wise `partial` kernel, whose first pass, the TF look-ups, is gone).
+#[inline(always)]
+fn colour_lanes(psi: &PsiTable, b: &mut ColourBatch) {
+    // What the unchecked loads of `psi_at` rely on.
+    assert!(psi.size() >= 2 && psi.data().len() >= psi.size().pow(2));
+    let ColourBatch { cf, cb, l, out, .. } = b;
+    let m = (psi.size() - 1) as f32;
+    let mut ok = [false; BATCH];
+    let mut zeta = [0.0f32; BATCH];
+    let (mut ga, mut gb) = ([0.0f32; BATCH], [0.0f32; BATCH]);
+    // 1. Validity, exp and the Ψ table coordinates γ·(n − 1) (as `psi_lookup`).
+    for k in 0..BATCH {
+        let valid = l[k] > 0.0 && finite(cf[3][k]) && finite(cb[3][k]);
+        // Invalid lanes compute on zeros (their output is 0 anyway), so no index runs wild.
+        let (tf, tb, lk) = if valid {
+            (cf[3][k], cb[3][k], l[k])
+        } else {
+            (0.0, 0.0, 0.0)
+        };
+        let (fa, fb) = (tau_len(tf, lk), tau_len(tb, lk));
+        zeta[k] = exp_neg(0.5 * (fa + fb));
+        ga[k] = (1.0 - 1.0 / (1.0 + fa)) * m;
+        gb[k] = (1.0 - 1.0 / (1.0 + fb)) * m;
+        ok[k] = valid;
+    }
+    // 2. Ψ (look-ups).
+    let mut ps = [0.0f32; BATCH];
+    for k in 0..BATCH {
+        ps[k] = psi_at(psi, ga[k], gb[k]);
+    }
+    // 3. The blend.
+    let [or, og, ob, oa] = out;
+    for k in 0..BATCH {
+        let alpha = 1.0 - zeta[k];
+        let pmz = (ps[k] - zeta[k]).max(0.0).min(alpha);
+        let z = |v: f32| if ok[k] { v } else { 0.0 };
+        or[k] = z(cf[0][k] * alpha + (cb[0][k] - cf[0][k]) * pmz);
+        og[k] = z(cf[1][k] * alpha + (cb[1][k] - cf[1][k]) * pmz);
+        ob[k] = z(cf[2][k] * alpha + (cb[2][k] - cf[2][k]) * pmz);
+        oa[k] = z(alpha);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{FastIntegrator, TfTable, TF_SAMPLES};
+    use super::*;
+    use crate::tf::TransferFunction;
+
+    /// The lane-wise kernel gives [`segment_from_colours`]'s bits, which are `partial`'s
+    /// [`FastIntegrator::segment`] bits when the colours are the table's; on ordinary
+    /// segments and on l ≤ 0, NaN and infinite extinctions.
+    #[test]
+    fn colour_lanes_are_the_segment() {
+        let tf = TransferFunction::preset("default").unwrap();
+        let integ = FastIntegrator::new("partial", &tf).unwrap();
+        let FastIntegrator::Partial(table, psi) = &integ else {
+            unreachable!()
+        };
+        let mut seed = 7u64;
+        let mut rnd = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let mut b = ColourBatch::default();
+        let mut ends = Vec::new();
+        for k in 0..BATCH {
+            let (sf, sb) = (rnd() * 1.2 - 0.1, rnd() * 1.2 - 0.1);
+            let l = match k % 16 {
+                0 => 0.0,
+                1 => -1.0,
+                2 => f32::NAN,
+                3 => 1e30,
+                _ => rnd() * rnd() * 0.3,
+            };
+            let (mut cf, cb) = (table.eval(sf), table.eval(sb));
+            if k % 16 == 4 {
+                cf[3] = f32::INFINITY;
+            }
+            if k % 16 == 5 {
+                cf[3] = f32::NAN;
+            }
+            for c in 0..4 {
+                (b.cf[c][k], b.cb[c][k]) = (cf[c], cb[c]);
+            }
+            b.l[k] = l;
+            ends.push((sf, sb, l, cf, cb));
+        }
+        b.len = BATCH;
+        shade_colours(psi, &mut b);
+        for (k, &(sf, sb, l, cf, cb)) in ends.iter().enumerate() {
+            let want = segment_from_colours(psi, cf, cb, l);
+            let got: [f32; 4] = std::array::from_fn(|c| b.out[c][k]);
+            assert_eq!(got.map(f32::to_bits), want.map(f32::to_bits), "segment {k}");
+            if k % 16 != 4 && k % 16 != 5 {
+                let seg = integ.segment(sf, sb, l);
+                assert_eq!(got.map(f32::to_bits), seg.map(f32::to_bits), "segment {k}");
+            }
+        }
+    }
+
+    /// Where the table says a range lies on one line, the line is the table to f32 rounding,
+    /// on every preset and a TF with a step and points off the samples; ranges across a
+    /// control point have no line.
+    #[test]
+    fn tf_lines_are_the_table() {
+        let mut tfs: Vec<TransferFunction> = crate::tf::PRESETS
+            .iter()
+            .map(|p| TransferFunction::preset(p).unwrap())
+            .collect();
+        let mut step = TransferFunction::preset("default").unwrap();
+        step.points[2].s = step.points[1].s;
+        step.points[3].s = 0.6180339;
+        tfs.push(step);
+        for tf in &tfs {
+            let t = TfTable::new(tf, TF_SAMPLES);
+            let (mut lined, mut worst) = (0, 0.0f32);
+            for k in 0..4000 {
+                let s0 = k as f32 / 4000.0 * 1.1 - 0.05;
+                let s1 = s0 + 0.002 * (k % 7) as f32;
+                let Some(line) = t.line_over(s0, s1) else {
+                    continue;
+                };
+                lined += 1;
+                assert!(
+                    tf.points_between(s0 as f64, s1 as f64).is_empty(),
+                    "{s0} {s1}"
+                );
+                for j in 0..=8 {
+                    let s = s0 + (s1 - s0) * j as f32 / 8.0;
+                    let v = t.eval(s);
+                    for (c, &vc) in v.iter().enumerate() {
+                        let e = (line.c0[c] + line.c1[c] * s - vc).abs();
+                        worst = worst.max(e / vc.abs().max(1.0));
+                    }
+                }
+            }
+            assert!(lined > 3000, "{}: {lined}", tf.name);
+            assert!(worst < 4e-6, "{}: {worst}", tf.name);
+            assert!(t.line_over(f32::NAN, 0.5).is_none());
+            assert!(t.line_over(0.5, 0.4).is_none());
+        }
+    }
+}

@@ -43,7 +43,8 @@ struct SilEdge {
     inv: f64,
 }
 
-/// One classified tet, set up for [`TetRaster::rows`].
+/// One classified tet, set up for [`TetRaster::rows`] (which consumes its rows: `j0` and `g`
+/// advance as they are taken).
 #[derive(Clone, Copy, Debug)]
 pub struct TetRaster {
     /// Triangles in the fan.
@@ -51,7 +52,8 @@ pub struct TetRaster {
     /// Bit k set when triangle k has positive barycentric normalisers (always, for a table
     /// entry on exact tests; [`raster_fan`](super::raster_fan) skips the others, and so does this).
     pub valid: u32,
-    /// Columns `ia..=ib` and rows `j0..=j1`: the silhouette's pixel box within the clip.
+    /// Columns `ia..=ib` and rows `j0..=j1`: the silhouette's pixel box within the clip (`j0`:
+    /// the next row).
     pub ia: i64,
     pub ib: i64,
     pub j0: i64,
@@ -106,7 +108,7 @@ pub fn wedge(bits: u32, valid: u32) -> u32 {
 impl TetRaster {
     /// Sets up the tet of table entry `c` with snapped vertices `q` for the inclusive pixel
     /// rectangle `clip = [i0, j0, i1, j1]`; `None` when nothing is drawn there.
-    #[inline]
+    #[inline(always)]
     pub fn new(c: &Case, q: &[[i64; 2]; 4], clip: [i64; 4]) -> Option<TetRaster> {
         if !c.drawn() {
             return None;
@@ -195,14 +197,24 @@ impl TetRaster {
 
     /// Calls `f` for each row of the silhouette with a covered centre, top to bottom. Once:
     /// it steps the silhouette edges in place.
-    #[inline]
+    #[inline(always)]
     pub fn rows(&mut self, mut f: impl FnMut(&TetRow)) {
+        while let Some(row) = self.next_row() {
+            f(&row);
+        }
+    }
+
+    /// The next row of the silhouette with a covered centre (top to bottom), `None` past the
+    /// last; [`TetRaster::rows`] as a loop the caller writes, so that its body is compiled in
+    /// the caller (with the caller's target features: a closure would not be).
+    #[inline(always)]
+    pub fn next_row(&mut self) -> Option<TetRow> {
         let last = self.ib - self.ia;
         let (nlo, nhi) = (self.nlo as usize, self.nhi as usize);
         let (lo, rest) = self.sil[..self.nsil as usize].split_at_mut(nlo);
         let (hi, flat) = rest.split_at_mut(nhi);
-        let mut g = self.g;
-        for j in self.j0..=self.j1 {
+        while self.j0 <= self.j1 {
+            let j = self.j0;
             let (mut a, mut b) = (0i64, last);
             for e in lo.iter_mut() {
                 // The first k with h + k·st > 0: ⌊−h/st⌋ + 1, the estimate within 1 of it.
@@ -226,18 +238,21 @@ impl TetRaster {
                 }
                 e.h += e.sr;
             }
+            let g = self.g;
+            for (v, s) in self.g.iter_mut().zip(&self.gsr) {
+                *v += s;
+            }
+            self.j0 += 1;
             if a <= b {
-                f(&TetRow {
+                return Some(TetRow {
                     j,
                     i0: self.ia + a,
                     i1: self.ia + b,
                     g: std::array::from_fn(|m| g[m] + a * self.gst[m]),
                 });
             }
-            for (v, s) in g.iter_mut().zip(&self.gsr) {
-                *v += s;
-            }
         }
+        None
     }
 
     /// Calls `f` for every centre covered, as [`raster_fan`](super::raster_fan) would (the same

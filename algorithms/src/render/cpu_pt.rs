@@ -38,6 +38,7 @@ mod bins;
 mod fast;
 mod general;
 mod project;
+mod queue;
 #[cfg(test)]
 mod tests;
 

@@ -9,20 +9,25 @@
 //!   access instead of six (tet, record, four vertices);
 //! - **the whole tet at once** ([`TetRaster`]): one set of exact integer edge functions per
 //!   tet (silhouette edges and the fan edges from the thick vertex, each shared by the two fan
-//!   triangles it separates), the exact span of each silhouette row, and per pixel the fan
-//!   triangle from the fan edges' signs without a branch (every pixel of the span is written to
-//!   the queue, which advances only where it is in a triangle); the attributes from per-triangle
-//!   f64 planes set up once per tet. Against the per-triangle rows of
-//!   [`raster_fan_rows`](crate::pt::raster_fan_rows) it is ~15 % fewer instructions for the
-//!   rasteriser and ~6 % less CPU per process (docs/performance.md, third pass);
-//! - **batched shading**: fragments are queued (pixel, `s_f`, `s_b`, `l`) and a batch is shaded
-//!   at once ([`FastIntegrator::shade_batch`]) and then composited in queue order, which is the
-//!   order a per-fragment loop would composite in, so the image is the same.
+//!   triangles it separates) and the exact span of each silhouette row;
+//! - **spans, not pixels** ([`Kernel::Spans`]): every centre of a row's span is in the fan, and
+//!   its attributes are the min or max of the fan triangles' planes (see [`spans`] for why), so
+//!   a row is evaluated a vector of pixels at a time, in f32, with no per-pixel choice of
+//!   triangle; the per-pixel kernel (the fan triangle from the fan edges' signs, its f64 plane)
+//!   stays for tets with a degenerate fan triangle and as the definition the spans are tested
+//!   against (`span_kernel_matches_per_pixel_kernel`);
+//! - **batched shading** ([`Queue`]): fragments are queued, a batch is shaded at once and then
+//!   composited in queue order, which is the order a per-fragment loop would composite in, so
+//!   the image is the same; `partial` queues colours, taken from the tet's line of the transfer
+//!   function where its scalars lie on one piece, so that its batch kernel has no table look-up.
+//!
+//! The draw of a tile is compiled for the best instruction set of the CPU (`pulp`'s run-time
+//! dispatch; x86-64-v3 where present), with a scalar fallback.
 
-use crate::optics_f32::{FastIntegrator, ShadeBatch, BATCH};
-use crate::pt::{fan_bits, wedge, TetRaster, MAX_FAN, TABLE};
-
+use super::queue::{Lanes, Queue};
 use super::TILE;
+use crate::optics_f32::{FastIntegrator, TfLine};
+use crate::pt::{fan_bits, wedge, TetRaster, MAX_FAN, TABLE};
 
 /// What drawing one tet needs, in one 64-byte line.
 #[derive(Clone, Copy, Debug, Default)]
@@ -41,90 +46,262 @@ pub(super) struct FastRec {
 }
 
 /// Renders tile (tx, ty) of a `w`×`h` image from its tets (`items`, back to front); returns the
-/// tile's RGBA rows (TILE wide) and its fragment count.
+/// tile's RGBA rows (TILE wide) and its fragment count. Compiled for the best instruction set
+/// of the CPU (`pulp`'s run-time dispatch), so that the span kernel runs 8 lanes wide.
 pub(super) fn draw_tile(
     recs: &[FastRec],
     items: &[u32],
     integ: &FastIntegrator,
-    (tx, ty): (u32, u32),
-    (w, h): (u32, u32),
+    tile: (u32, u32),
+    size: (u32, u32),
 ) -> (Vec<[f32; 4]>, u64) {
-    let ts = TILE as usize;
-    let mut buf = vec![[0.0f32; 4]; ts * ts];
-    let clip = super::bins::tile_clip(tx, ty, w, h);
-    let (x0, y0) = (clip[0], clip[1]);
-    let mut batch = ShadeBatch::default();
-    let mut pix = [0u16; BATCH];
-    let mut frags = 0u64;
-    for (n, &t) in items.iter().enumerate() {
-        // The records are read in visibility order, at random: ask for one a few tets ahead.
-        if let Some(&ahead) = items.get(n + PREFETCH) {
-            prefetch(&recs[ahead as usize]);
-        }
-        let r = &recs[t as usize];
-        let case = &TABLE[r.case as usize];
-        let q = r.q.map(|v| [v[0] as i64, v[1] as i64]);
-        let Some(mut tr) = TetRaster::new(case, &q, clip) else {
-            continue;
-        };
-        // Attributes (s_f, s_b, l) over fan triangle k: thick + lx·(x − thick) + ly·(y − thick)
-        // with x, y its silhouette vertices (l = 0 there) and lx = −F_{k+1}·inv_x,
-        // ly = F_k·inv_y (see `TetRaster`): thick + F_{k+1}·cx[k] + F_k·cy[k], in f64, set up
-        // once per tet; `da` is the step per pixel.
-        let thick = [r.sf as f64, r.sb as f64, r.l as f64];
-        let mut cx = [[0.0f64; 4]; 4];
-        let mut cy = [[0.0f64; 4]; 4];
-        let mut da = [[0.0f64; 4]; 4];
-        for k in 0..tr.ntri {
-            let sx = r.s[case.fan[k] as usize] as f64;
-            let sy = r.s[case.fan[k + 1] as usize] as f64;
-            let dx = [sx - thick[0], sx - thick[1], -thick[2]];
-            let dy = [sy - thick[0], sy - thick[1], -thick[2]];
-            for ch in 0..3 {
-                cx[k][ch] = -tr.inv_x[k] * dx[ch];
-                cy[k][ch] = tr.inv_y[k] * dy[ch];
-                da[k][ch] = tr.gst[k + 1] as f64 * cx[k][ch] + tr.gst[k] as f64 * cy[k][ch];
-            }
-        }
-        let (gbias, gst, valid, ntri) = (tr.gbias, tr.gst, tr.valid, tr.ntri);
-        tr.rows(|row| {
-            let n = (row.i1 - row.i0 + 1) as usize;
-            // The attributes at the row's first pixel, per triangle.
-            let f: [f64; MAX_FAN] = std::array::from_fn(|m| (row.g[m] - gbias[m]) as f64);
-            let mut base = [[0.0f64; 4]; 4];
-            for k in 0..ntri {
-                for ch in 0..3 {
-                    base[k][ch] = thick[ch] + f[k + 1] * cx[k][ch] + f[k] * cy[k][ch];
-                }
-            }
-            let p0 = ((row.j - y0) as usize * ts + (row.i0 - x0) as usize) as u16;
-            let mut g = row.g;
-            // Every pixel of the row is written to the queue; the queue advances only where it
-            // is in one of the fan's triangles (no branch: the rows are a few pixels long).
-            for kk in 0..n {
-                let t = wedge(fan_bits(&g), valid);
-                let tri = (t.trailing_zeros() & 3) as usize;
-                let kf = kk as f64;
-                let (b, d) = (&base[tri], &da[tri]);
-                let len = batch.len;
-                batch.sf[len] = (b[0] + kf * d[0]) as f32;
-                batch.sb[len] = (b[1] + kf * d[1]) as f32;
-                batch.l[len] = (b[2] + kf * d[2]) as f32;
-                pix[len] = p0 + kk as u16;
-                batch.len += (t != 0) as usize;
-                for (v, s) in g.iter_mut().zip(&gst) {
-                    *v += s;
-                }
-                if batch.len == BATCH {
-                    frags += BATCH as u64;
-                    flush(integ, &mut batch, &pix, &mut buf);
-                }
-            }
-        });
+    pulp::Arch::new().dispatch(DrawTile {
+        recs,
+        items,
+        integ,
+        tile,
+        size,
+        kernel: Kernel::Spans,
+    })
+}
+
+/// How `draw_tile` finds each fragment's attributes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Kernel {
+    /// Per row, every attribute as the min or max of the fan triangles' planes, a vector of pixels
+    /// at a time ([`spans`]); tets with a degenerate fan triangle go per pixel.
+    Spans,
+    /// Per pixel, the fan triangle from the fan edges' signs and its plane (the definition the
+    /// spans are tested against).
+    #[cfg_attr(not(test), allow(dead_code))]
+    PerPixel,
+}
+
+pub(super) struct DrawTile<'a> {
+    pub(super) recs: &'a [FastRec],
+    pub(super) items: &'a [u32],
+    pub(super) integ: &'a FastIntegrator,
+    pub(super) tile: (u32, u32),
+    pub(super) size: (u32, u32),
+    pub(super) kernel: Kernel,
+}
+
+impl pulp::WithSimd for DrawTile<'_> {
+    type Output = (Vec<[f32; 4]>, u64);
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, simd: S) -> Self::Output {
+        self.run(simd)
     }
-    frags += batch.len as u64;
-    flush(integ, &mut batch, &pix, &mut buf);
-    (buf, frags)
+}
+
+impl DrawTile<'_> {
+    #[inline(always)]
+    fn run<S: pulp::Simd>(self, simd: S) -> (Vec<[f32; 4]>, u64) {
+        let (recs, items, integ) = (self.recs, self.items, self.integ);
+        let ts = TILE as usize;
+        let mut buf = vec![[0.0f32; 4]; ts * ts];
+        let clip = super::bins::tile_clip(self.tile.0, self.tile.1, self.size.0, self.size.1);
+        let (x0, y0) = (clip[0], clip[1]);
+        let mut qu = Queue::new(integ);
+        for (n, &t) in items.iter().enumerate() {
+            // The records are read in visibility order, at random: ask for one a few tets ahead.
+            if let Some(&ahead) = items.get(n + PREFETCH) {
+                prefetch(&recs[ahead as usize]);
+            }
+            let r = &recs[t as usize];
+            let case = &TABLE[r.case as usize];
+            let q = r.q.map(|v| [v[0] as i64, v[1] as i64]);
+            let Some(mut tr) = TetRaster::new(case, &q, clip) else {
+                continue;
+            };
+            // Attributes (s_f, s_b, l) over fan triangle k: thick + lx·(x − thick) + ly·(y − thick)
+            // with x, y its silhouette vertices (l = 0 there) and lx = −F_{k+1}·inv_x,
+            // ly = F_k·inv_y (see `TetRaster`): thick + F_{k+1}·cx[k] + F_k·cy[k], in f64, set up
+            // once per tet; `da` is the step per pixel.
+            let thick = [r.sf as f64, r.sb as f64, r.l as f64];
+            let mut cx = [[0.0f64; 4]; 4];
+            let mut cy = [[0.0f64; 4]; 4];
+            let mut da = [[0.0f64; 4]; 4];
+            for k in 0..tr.ntri {
+                let sx = r.s[case.fan[k] as usize] as f64;
+                let sy = r.s[case.fan[k + 1] as usize] as f64;
+                let dx = [sx - thick[0], sx - thick[1], -thick[2]];
+                let dy = [sy - thick[0], sy - thick[1], -thick[2]];
+                for ch in 0..3 {
+                    cx[k][ch] = -tr.inv_x[k] * dx[ch];
+                    cy[k][ch] = tr.inv_y[k] * dy[ch];
+                    da[k][ch] = tr.gst[k + 1] as f64 * cx[k][ch] + tr.gst[k] as f64 * cy[k][ch];
+                }
+            }
+            let planes = Planes { thick, cx, cy, da };
+            let line = qu.line(&r.s);
+            if self.kernel == Kernel::Spans && tr.valid == (1 << tr.ntri) - 1 {
+                spans(simd, &mut tr, &planes, r.sb >= r.sf, (x0, y0), line, &mut qu, &mut buf);
+            } else {
+                per_pixel(&mut tr, &planes, (x0, y0), line, &mut qu, &mut buf);
+            }
+        }
+        qu.flush(&mut buf);
+        (buf, qu.frags)
+    }
+}
+
+/// The attribute planes of one tet's fan triangles (`[triangle][channel]`, channels `s_f`,
+/// `s_b`, `l`): `thick + F_{k+1}·cx + F_k·cy`, `da` per pixel along a row.
+struct Planes {
+    thick: [f64; 3],
+    cx: [[f64; 4]; 4],
+    cy: [[f64; 4]; 4],
+    da: [[f64; 4]; 4],
+}
+
+impl Planes {
+    /// Channel `ch` of triangle `k`'s plane at a pixel whose unbiased fan edges are `f`.
+    #[inline(always)]
+    fn at(&self, f: &[f64; MAX_FAN], k: usize, ch: usize) -> f64 {
+        self.thick[ch] + f[k + 1] * self.cx[k][ch] + f[k] * self.cy[k][ch]
+    }
+}
+
+/// The span kernel: every row of the silhouette at once, its attributes as the min or max of
+/// the fan triangles' planes.
+///
+/// Why that is the fan's interpolation: over the snapped tet, `l` is the thickness of a convex
+/// solid along the ray, `z_out − z_in` with `z_in` the max of the front faces' depths and
+/// `z_out` the min of the back faces' (both linear per face), so `l` is concave and, being
+/// linear over each fan triangle, the min of the triangles' planes. The scalar is linear in the
+/// tet, `s = S(x, y) + σ·z`, so `s_f = S + σ·z_in` is convex when σ ≥ 0 (the max of the planes)
+/// and concave when σ < 0 (the min), and `s_b = S + σ·z_out` the other way round; σ has the sign
+/// of `s_b − s_f` at the thick vertex (`sigma_up`). On each triangle its own plane attains the
+/// min (max), so the value is its plane's, up to rounding: the planes are evaluated in f32
+/// (`base + k·step`, k < 64) where the per-pixel kernel rounds its f64 value once.
+///
+/// Every centre of a row is in the fan when all its triangles are valid (they tile the
+/// silhouette), which the caller checks; the queue takes the whole row.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn spans<S: pulp::Simd>(
+    simd: S,
+    tr: &mut TetRaster,
+    pl: &Planes,
+    sigma_up: bool,
+    (x0, y0): (i64, i64),
+    line: Option<&TfLine>,
+    qu: &mut Queue,
+    buf: &mut [[f32; 4]],
+) {
+    let ts = TILE as usize;
+    let ntri = tr.ntri;
+    let gbias = tr.gbias;
+    // Max for s_f, min for s_b when σ ≥ 0; with σ < 0 both negated (exactly), so one kernel.
+    let sg = if sigma_up { 1.0f32 } else { -1.0 };
+    let sign = [sg, sg, 1.0];
+    let sgv = simd.splat_f32s(sg);
+    // f32 lanes per vector (8 with AVX2; 1 on the scalar fallback).
+    let lanes = S::F32_LANES.min(IOTA.len());
+    // Triangles past ntri repeat triangle 0 (min and max are idempotent).
+    let tri = |k: usize| if k < ntri { k } else { 0 };
+    // Per plane (index ch·4 + k): its value at centre (ia, j0), in f64, and its steps per
+    // row and per column; the row's start is then two multiply-adds a plane (vectorised),
+    // not the plane's evaluation from the fan edges.
+    let (ia, j0) = (tr.ia, tr.j0);
+    let f0: [f64; MAX_FAN] = std::array::from_fn(|m| (tr.g[m] - gbias[m]) as f64);
+    let (mut v0, mut dy, mut dx) = ([0.0f64; 12], [0.0f64; 12], [0.0f64; 12]);
+    let mut step = [0.0f32; 12];
+    for (ch, &sc) in sign.iter().enumerate() {
+        for k in 0..4 {
+            let (t, p) = (tri(k), ch * 4 + k);
+            v0[p] = pl.at(&f0, t, ch);
+            dy[p] = tr.gsr[t + 1] as f64 * pl.cx[t][ch] + tr.gsr[t] as f64 * pl.cy[t][ch];
+            dx[p] = pl.da[t][ch];
+            step[p] = dx[p] as f32 * sc;
+        }
+    }
+    let stepv = step.map(|v| simd.splat_f32s(v));
+    while let Some(row) = tr.next_row() {
+        let n = (row.i1 - row.i0 + 1) as usize;
+        let (r, a) = ((row.j - j0) as f64, (row.i0 - ia) as f64);
+        let mut base = [0.0f32; 12];
+        for p in 0..12 {
+            base[p] = (v0[p] + r * dy[p] + a * dx[p]) as f32 * sign[p / 4];
+        }
+        qu.reserve(n.div_ceil(lanes) * lanes, buf);
+        let p0 = ((row.j - y0) as usize * ts + (row.i0 - x0) as usize) as u16;
+        let base = base.map(|v| simd.splat_f32s(v));
+        for c in 0..n.div_ceil(lanes) {
+            let x = simd.add_f32s(
+                simd.partial_load_f32s(&IOTA[..lanes]),
+                simd.splat_f32s((c * lanes) as f32),
+            );
+            let plane = |ch: usize, k: usize| simd.mul_add_f32s(x, stepv[ch * 4 + k], base[ch * 4 + k]);
+            let (mut vf, mut vb, mut vl) = (plane(0, 0), plane(1, 0), plane(2, 0));
+            for k in 1..4 {
+                vf = simd.max_f32s(vf, plane(0, k));
+                vb = simd.min_f32s(vb, plane(1, k));
+                vl = simd.min_f32s(vl, plane(2, k));
+            }
+            let v = Lanes {
+                sf: simd.mul_f32s(vf, sgv),
+                sb: simd.mul_f32s(vb, sgv),
+                l: vl,
+                count: (n - c * lanes).min(lanes),
+            };
+            qu.push_lanes(simd, line, v, p0.wrapping_add((c * lanes) as u16));
+        }
+    }
+}
+
+/// Lane offsets 0, 1, 2, … (for the widest f32 vector there is).
+const IOTA: [f32; 16] = [
+    0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 11.0, 12.0, 13.0, 14.0, 15.0,
+];
+
+/// The per-pixel kernel: each centre's fan triangle from the fan edges' signs ([`wedge`]) and
+/// its plane, rounded from f64 once.
+#[inline(always)]
+fn per_pixel(
+    tr: &mut TetRaster,
+    pl: &Planes,
+    (x0, y0): (i64, i64),
+    line: Option<&TfLine>,
+    qu: &mut Queue,
+    buf: &mut [[f32; 4]],
+) {
+    let ts = TILE as usize;
+    let (gbias, gst, valid, ntri) = (tr.gbias, tr.gst, tr.valid, tr.ntri);
+    while let Some(row) = tr.next_row() {
+        let n = (row.i1 - row.i0 + 1) as usize;
+        // The attributes at the row's first pixel, per triangle.
+        let f: [f64; MAX_FAN] = std::array::from_fn(|m| (row.g[m] - gbias[m]) as f64);
+        let mut base = [[0.0f64; 4]; 4];
+        for (k, b) in base.iter_mut().enumerate().take(ntri) {
+            for (ch, v) in b.iter_mut().enumerate().take(3) {
+                *v = pl.at(&f, k, ch);
+            }
+        }
+        let p0 = ((row.j - y0) as usize * ts + (row.i0 - x0) as usize) as u16;
+        let mut g = row.g;
+        // Every pixel of the row is written to the queue; the queue advances only where it
+        // is in one of the fan's triangles (no branch: the rows are a few pixels long).
+        for kk in 0..n {
+            let t = wedge(fan_bits(&g), valid);
+            let tri = (t.trailing_zeros() & 3) as usize;
+            let kf = kk as f64;
+            let (b, d) = (&base[tri], &pl.da[tri]);
+            qu.reserve(1, buf);
+            qu.push(
+                line,
+                (b[0] + kf * d[0]) as f32,
+                (b[1] + kf * d[1]) as f32,
+                (b[2] + kf * d[2]) as f32,
+                p0 + kk as u16,
+            );
+            qu.advance((t != 0) as usize);
+            for (v, s) in g.iter_mut().zip(&gst) {
+                *v += s;
+            }
+        }
+    }
 }
 
 /// How many tets ahead `draw_tile` prefetches.
@@ -141,25 +318,4 @@ fn prefetch(r: &FastRec) {
     }
     #[cfg(not(target_arch = "x86_64"))]
     let _ = r;
-}
-
-/// Shades the queued fragments and composites them in queue order.
-#[inline]
-fn flush(integ: &FastIntegrator, batch: &mut ShadeBatch, pix: &[u16; BATCH], buf: &mut [[f32; 4]]) {
-    let n = batch.len;
-    if n == 0 {
-        return;
-    }
-    integ.shade_batch(batch);
-    let [r, g, b, a] = &batch.out;
-    for k in 0..n {
-        // Back-to-front "over" (premultiplied): I ← I_seg + (1 − α_seg)·I.
-        let p = &mut buf[pix[k] as usize];
-        let keep = 1.0 - a[k];
-        p[0] = r[k] + keep * p[0];
-        p[1] = g[k] + keep * p[1];
-        p[2] = b[k] + keep * p[2];
-        p[3] = a[k] + keep * p[3];
-    }
-    batch.len = 0;
 }

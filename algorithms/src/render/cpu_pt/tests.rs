@@ -400,3 +400,56 @@ fn registry_and_sorts() {
     let e = crate::render::make("cpu-pt", &bad).err().unwrap();
     assert!(e.to_string().contains("bubble"), "{e}");
 }
+
+/// The fast path's span kernel (attributes as the min or max of the fan triangles' planes, in
+/// f32 lanes) against its per-pixel kernel (each centre's own triangle, rounded from f64), tile
+/// by tile on the same records and bins: the same fragments, and the same colour to f32
+/// rounding (measured: max 3.0e-7 here). On the smooth grid, the degenerate tets and a grid
+/// seen along its axes (classes 3 and 4), in several views.
+#[test]
+fn span_kernel_matches_per_pixel_kernel() {
+    use super::fast::{DrawTile, Kernel};
+    let tf = smooth_tf();
+    let flat = kuhn_grid(
+        [6, 5, 4],
+        DVec3::new(0.0, 0.0, 0.0),
+        DVec3::new(1.0, 1.0, 1.0),
+        |p| p.x * 0.7 + p.y * 0.2 + p.z * 0.1,
+    );
+    let mut worst = 0.0f32;
+    for mesh in [smooth_grid(), flat] {
+        for (a, e) in VIEWS.into_iter().chain([(0.0, 0.0), (90.0, 0.0)]) {
+            let cam = Camera::new(&mesh.bbox(), View::new(a, e), Projection::Ortho, 150, 90);
+            let mut r = CpuPt::new("centroid", "partial").unwrap();
+            r.prepare(&mesh, &tf).unwrap();
+            r.render(&mesh, &cam).unwrap();
+            let integ = r.state.as_ref().unwrap().fast.as_ref().unwrap();
+            let sc = &r.scratch;
+            let (w, h) = (cam.width, cam.height);
+            let ntx = w.div_ceil(TILE);
+            let mut frags = 0;
+            for k in 0..(ntx * h.div_ceil(TILE)) {
+                let run = |kernel| {
+                    pulp::Arch::new().dispatch(DrawTile {
+                        recs: &sc.fast,
+                        items: sc.bins.tile(k as usize),
+                        integ,
+                        tile: (k % ntx, k / ntx),
+                        size: (w, h),
+                        kernel,
+                    })
+                };
+                let ((sp, nsp), (pp, npp)) = (run(Kernel::Spans), run(Kernel::PerPixel));
+                assert_eq!(nsp, npp, "tile {k} ({a}, {e})");
+                frags += nsp;
+                for (x, y) in sp.iter().flatten().zip(pp.iter().flatten()) {
+                    assert!(x.is_finite());
+                    worst = worst.max((x - y).abs());
+                }
+            }
+            assert!(frags > 1000, "({a}, {e}): {frags} fragments");
+        }
+    }
+    eprintln!("span vs per-pixel kernel: max |difference| {worst:.3e}");
+    assert!(worst <= 2e-6, "{worst}");
+}

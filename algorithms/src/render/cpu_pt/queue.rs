@@ -1,0 +1,195 @@
+//! The fragment queue of `cpu-pt`'s fast path: fragments wait here, in the order they are
+//! rasterised, until a batch is full; then the batch is shaded at once and composited in queue
+//! order (the order a per-fragment loop would composite in, so the image is the same).
+//!
+//! Two kinds of batch:
+//! - `partial` queues each fragment's **colours** at both ends ([`ColourBatch`]): for a tet
+//!   whose scalars lie on one piece of the transfer function ([`TfTable::line_over`]) they are
+//!   `c0 + c1·s`, a multiply-add per channel and lane; for the others the table is looked up
+//!   per fragment, as before;
+//! - `average` and `preint` queue the scalars and the length ([`ShadeBatch`]).
+
+use crate::optics::PsiTable;
+use crate::optics_f32::{
+    shade_colours, ColourBatch, FastIntegrator, ShadeBatch, TfLine, TfTable, BATCH,
+};
+
+/// See the module documentation.
+pub(super) struct Queue<'a> {
+    integ: &'a FastIntegrator,
+    /// `partial`'s table and Ψ: the queue holds colours.
+    colours: Option<(&'a TfTable, &'a PsiTable)>,
+    scalars: ShadeBatch,
+    col: ColourBatch,
+    pix: [u16; BATCH],
+    len: usize,
+    /// Fragments shaded so far.
+    pub(super) frags: u64,
+}
+
+/// A vector of lanes the span kernel hands the queue: the ends' scalars and the length, and how
+/// many of its lanes are fragments.
+pub(super) struct Lanes<V> {
+    pub(super) sf: V,
+    pub(super) sb: V,
+    pub(super) l: V,
+    pub(super) count: usize,
+}
+
+impl<'a> Queue<'a> {
+    pub(super) fn new(integ: &'a FastIntegrator) -> Queue<'a> {
+        let colours = match integ {
+            FastIntegrator::Partial(t, psi) => Some((t, &**psi)),
+            _ => None,
+        };
+        Queue {
+            integ,
+            colours,
+            scalars: ShadeBatch::default(),
+            col: ColourBatch::default(),
+            pix: [0; BATCH],
+            len: 0,
+            frags: 0,
+        }
+    }
+
+    /// The line of `tf` over a tet's scalars `s`, when the queue holds colours and they lie on
+    /// one piece (`None` otherwise: the table is looked up per fragment).
+    #[inline(always)]
+    pub(super) fn line(&self, s: &[f32; 4]) -> Option<&'a TfLine> {
+        let (tf, _) = self.colours?;
+        let lo = s[0].min(s[1]).min(s[2].min(s[3]));
+        let hi = s[0].max(s[1]).max(s[2].max(s[3]));
+        tf.line_over(lo, hi)
+    }
+
+    /// Makes room for `n` more slots (flushing when they do not fit).
+    #[inline(always)]
+    pub(super) fn reserve(&mut self, n: usize, buf: &mut [[f32; 4]]) {
+        if self.len + n > BATCH {
+            self.flush(buf);
+        }
+    }
+
+    /// Queues one fragment at pixel `p` (room for one must have been made).
+    #[inline(always)]
+    pub(super) fn push(&mut self, line: Option<&TfLine>, sf: f32, sb: f32, l: f32, p: u16) {
+        let k = self.len;
+        if let Some((tf, _)) = self.colours {
+            let (cf, cb, l) = colours(tf, line, sf, sb, l);
+            for c in 0..4 {
+                self.col.cf[c][k] = cf[c];
+                self.col.cb[c][k] = cb[c];
+            }
+            self.col.l[k] = l;
+        } else {
+            self.scalars.sf[k] = sf;
+            self.scalars.sb[k] = sb;
+            self.scalars.l[k] = l;
+        }
+        self.pix[k] = p;
+    }
+
+    /// Advances the queue by `n` slots written with [`Queue::push`] (0 or 1: a pixel outside
+    /// the fan is written and not taken).
+    #[inline(always)]
+    pub(super) fn advance(&mut self, n: usize) {
+        self.len += n;
+    }
+
+    /// Queues the first `v.count` lanes of a vector, at pixels `p0, p0 + 1, …` (room for the
+    /// whole vector must have been made: all its lanes are written).
+    #[inline(always)]
+    pub(super) fn push_lanes<S: pulp::Simd>(
+        &mut self,
+        simd: S,
+        line: Option<&TfLine>,
+        v: Lanes<S::f32s>,
+        p0: u16,
+    ) {
+        let lanes = S::F32_LANES;
+        let at = self.len;
+        let put = |dst: &mut [f32; BATCH], x: S::f32s| {
+            simd.partial_store_f32s(&mut dst[at..at + lanes], x);
+        };
+        match (self.colours, line) {
+            (None, _) => {
+                put(&mut self.scalars.sf, v.sf);
+                put(&mut self.scalars.sb, v.sb);
+                put(&mut self.scalars.l, v.l);
+            }
+            (Some(_), Some(line)) => {
+                for c in 0..4 {
+                    let (c0, c1) = (simd.splat_f32s(line.c0[c]), simd.splat_f32s(line.c1[c]));
+                    put(&mut self.col.cf[c], simd.mul_add_f32s(c1, v.sf, c0));
+                    put(&mut self.col.cb[c], simd.mul_add_f32s(c1, v.sb, c0));
+                }
+                put(&mut self.col.l, v.l);
+            }
+            (Some((tf, _)), None) => {
+                let mut tmp = [[0.0f32; 16]; 3];
+                for (t, x) in tmp.iter_mut().zip([v.sf, v.sb, v.l]) {
+                    simd.partial_store_f32s(&mut t[..lanes.min(16)], x);
+                }
+                let [sf, sb, l] = &tmp;
+                for (j, ((&f, &b), &l)) in sf.iter().zip(sb).zip(l).take(v.count).enumerate() {
+                    let (cf, cb, l) = colours(tf, None, f, b, l);
+                    for c in 0..4 {
+                        self.col.cf[c][at + j] = cf[c];
+                        self.col.cb[c][at + j] = cb[c];
+                    }
+                    self.col.l[at + j] = l;
+                }
+            }
+        }
+        for (j, p) in self.pix[at..at + lanes].iter_mut().enumerate() {
+            *p = p0.wrapping_add(j as u16);
+        }
+        self.len += v.count;
+    }
+
+    /// Shades the queued fragments and composites them into `buf` in queue order.
+    #[inline]
+    pub(super) fn flush(&mut self, buf: &mut [[f32; 4]]) {
+        let n = self.len;
+        if n == 0 {
+            return;
+        }
+        let out = if let Some((_, psi)) = self.colours {
+            self.col.len = n;
+            shade_colours(psi, &mut self.col);
+            &self.col.out
+        } else {
+            self.scalars.len = n;
+            self.integ.shade_batch(&mut self.scalars);
+            &self.scalars.out
+        };
+        let [r, g, b, a] = out;
+        for k in 0..n {
+            // Back-to-front "over" (premultiplied): I ← I_seg + (1 − α_seg)·I.
+            let p = &mut buf[self.pix[k] as usize];
+            let keep = 1.0 - a[k];
+            p[0] = r[k] + keep * p[0];
+            p[1] = g[k] + keep * p[1];
+            p[2] = b[k] + keep * p[2];
+            p[3] = a[k] + keep * p[3];
+        }
+        self.frags += n as u64;
+        self.len = 0;
+    }
+}
+
+/// A fragment's colours at both ends and its length: from the tet's line when it has one, else
+/// from the table (a non-finite scalar gives length 0: no contribution, as `segment`).
+#[inline(always)]
+fn colours(tf: &TfTable, line: Option<&TfLine>, sf: f32, sb: f32, l: f32) -> ([f32; 4], [f32; 4], f32) {
+    match line {
+        Some(t) => (
+            std::array::from_fn(|c| t.c0[c] + t.c1[c] * sf),
+            std::array::from_fn(|c| t.c0[c] + t.c1[c] * sb),
+            l,
+        ),
+        None if sf.is_finite() && sb.is_finite() => (tf.eval(sf), tf.eval(sb), l),
+        None => ([0.0; 4], [0.0; 4], 0.0),
+    }
+}

@@ -322,59 +322,27 @@ fn average_lanes(tf: &TfTable, b: &mut ShadeBatch) {
     }
 }
 
-/// `partial` in four passes over the batch, so that the arithmetic (exp, the Ψ coordinates, the
-/// blend) sits in loops without table look-ups, which the compiler vectorises, and the
-/// look-ups in loops of their own (gathers cost more than scalar loads on the CPUs measured).
+/// `partial`: the TF looked up at both ends (a loop of look-ups of its own: gathers cost more
+/// than scalar loads on the CPUs measured), then [`colour::colour_lanes`], whose loops are
+/// arithmetic the compiler vectorises. Invalid lanes get zeros and length 0 (output 0).
 #[inline(always)]
 fn partial_lanes(tf: &TfTable, psi: &PsiTable, b: &mut ShadeBatch) {
     // What the unchecked loads rely on.
-    assert!(tf.data.len() >= 2 && psi.size() >= 2 && psi.data().len() >= psi.size().pow(2));
-    let ShadeBatch { sf, sb, l, out, .. } = b;
-    let mut ok = [false; BATCH];
-    let mut cf = [[0.0f32; BATCH]; 3];
-    let mut dc = [[0.0f32; BATCH]; 3];
-    let (mut fa, mut fb) = ([0.0f32; BATCH], [0.0f32; BATCH]);
-    // 1. Validity and the transfer function at both ends (look-ups).
+    assert!(tf.data.len() >= 2);
+    let mut c = ColourBatch::default();
     for k in 0..BATCH {
-        let (f, bk, lk) = (sf[k], sb[k], l[k]);
+        let (f, bk, lk) = (b.sf[k], b.sb[k], b.l[k]);
         let valid = finite(f) && finite(bk) && lk > 0.0;
-        // Invalid lanes compute on zeros (their output is 0 anyway), so no index runs wild.
         let (f, bk, lk) = if valid { (f, bk, lk) } else { (0.0, 0.0, 0.0) };
-        let (a, c) = (tf_lanes(tf, f), tf_lanes(tf, bk));
-        for ch in 0..3 {
-            cf[ch][k] = a[ch];
-            dc[ch][k] = c[ch] - a[ch];
+        let (cf, cb) = (tf_lanes(tf, f), tf_lanes(tf, bk));
+        for ch in 0..4 {
+            c.cf[ch][k] = cf[ch];
+            c.cb[ch][k] = cb[ch];
         }
-        fa[k] = tau_len(a[3], lk);
-        fb[k] = tau_len(c[3], lk);
-        ok[k] = valid;
+        c.l[k] = lk;
     }
-    // 2. exp and the Ψ table coordinates γ·(n − 1) (arithmetic).
-    let m = (psi.size() - 1) as f32;
-    let mut zeta = [0.0f32; BATCH];
-    let (mut ga, mut gb) = ([0.0f32; BATCH], [0.0f32; BATCH]);
-    for k in 0..BATCH {
-        zeta[k] = exp_neg(0.5 * (fa[k] + fb[k]));
-        // γ = x/(1 + x) = 1 − 1/(1 + x), as `psi_lookup`.
-        ga[k] = (1.0 - 1.0 / (1.0 + fa[k])) * m;
-        gb[k] = (1.0 - 1.0 / (1.0 + fb[k])) * m;
-    }
-    // 3. Ψ (look-ups).
-    let mut ps = [0.0f32; BATCH];
-    for k in 0..BATCH {
-        ps[k] = psi_at(psi, ga[k], gb[k]);
-    }
-    // 4. The blend (arithmetic).
-    let [or, og, ob, oa] = out;
-    for k in 0..BATCH {
-        let alpha = 1.0 - zeta[k];
-        let pmz = (ps[k] - zeta[k]).max(0.0).min(alpha);
-        let z = |v: f32| if ok[k] { v } else { 0.0 };
-        or[k] = z(cf[0][k] * alpha + dc[0][k] * pmz);
-        og[k] = z(cf[1][k] * alpha + dc[1][k] * pmz);
-        ob[k] = z(cf[2][k] * alpha + dc[2][k] * pmz);
-        oa[k] = z(alpha);
-    }
+    colour::colour_lanes(psi, &mut c);
+    b.out = c.out;
 }
 
 /// The bilinear part of [`psi_lookup`] at table coordinates `ga`, `gb` (γ·(n − 1)).

@@ -75,7 +75,7 @@ impl pulp::WithSimd for Lanes<'_> {
 /// In three passes: the arithmetic before the Ψ look-up, the look-ups, the blend (as the
 /// lane-wise `partial` kernel, whose first pass, the TF look-ups, is gone).
 #[inline(always)]
-fn colour_lanes(psi: &PsiTable, b: &mut ColourBatch) {
+pub(super) fn colour_lanes(psi: &PsiTable, b: &mut ColourBatch) {
     // What the unchecked loads of `psi_at` rely on.
     assert!(psi.size() >= 2 && psi.data().len() >= psi.size().pow(2));
     let ColourBatch { cf, cb, l, out, .. } = b;

@@ -36,11 +36,11 @@ pub struct TfTable {
     scale: f32,
     max: f32,
     data: Vec<[f32; 4]>,
-    /// Per sample interval, the line of the TF it lies on (an index into `lines`), or
-    /// `NO_LINE` where a control point is strictly inside it (the table bends there) or τ
-    /// was capped; consecutive intervals of one piece of the TF share their line.
-    piece: Vec<u16>,
+    /// The pieces of the TF the table follows as lines, and beside each line the sample
+    /// intervals `first..end` it covers (in order, disjoint; an interval with a control point
+    /// strictly inside, where the table bends, or with τ capped, is on none).
     lines: Vec<TfLine>,
+    runs: Vec<[u32; 2]>,
 }
 
 impl TfTable {
@@ -69,14 +69,14 @@ impl TfTable {
                 ]
             })
             .collect();
-        let (piece, lines) = pieces(tf, n, at);
+        let (lines, runs) = pieces(tf, n, at);
         TfTable {
             lo: lo as f32,
             scale: ((n - 1) as f64 / (hi - lo)) as f32,
             max: (n - 1) as f32,
             data,
-            piece,
             lines,
+            runs,
         }
     }
 

@@ -12,9 +12,6 @@ pub struct TfLine {
     pub c1: [f32; 4],
 }
 
-/// `TfTable::piece` of an interval on no line.
-pub(super) const NO_LINE: u16 = u16::MAX;
-
 impl TfTable {
     /// The line the table follows over `[s0, s1]`, where the whole range lies on one piece of
     /// the TF inside the table's domain (else `None`): there [`TfTable::eval`] interpolates
@@ -27,55 +24,53 @@ impl TfTable {
         if !(x0 >= 0.0 && x1 <= self.max && x0 <= x1) {
             return None;
         }
-        let last = self.piece.len() - 1;
-        let (i0, i1) = ((x0 as usize).min(last), (x1 as usize).min(last));
-        let p = self.piece[i0];
-        if p == NO_LINE || self.piece[i1] != p {
-            return None;
-        }
-        self.lines.get(p as usize)
+        // The sample intervals of the ends (`max` itself is the last interval's end).
+        let last = self.data.len() as u32 - 2;
+        let (i0, i1) = ((x0 as u32).min(last), (x1 as u32).min(last));
+        // The TF has a few pieces: the run starting last at or before `i0`, by search.
+        let k = self.runs.partition_point(|r| r[0] <= i0).checked_sub(1)?;
+        (i1 < self.runs[k][1]).then(|| &self.lines[k])
     }
 }
 
-/// The lines of [`TfTable`]: per interval of samples `at(i)..at(i + 1)`, its piece of `tf`
-/// (see `TfTable::piece`) and each piece's line in f64, rounded to f32.
+/// The lines of [`TfTable`] and the sample intervals each covers (see `TfTable::runs`): each
+/// piece of `tf` over the intervals `at(i)..at(i + 1)` it holds unbent, its line in f64
+/// rounded to f32.
 pub(super) fn pieces(
     tf: &TransferFunction,
     n: usize,
     at: impl Fn(usize) -> f64,
-) -> (Vec<u16>, Vec<TfLine>) {
-    let mut piece = vec![NO_LINE; n - 1];
+) -> (Vec<TfLine>, Vec<[u32; 2]>) {
     let mut lines: Vec<TfLine> = Vec::new();
-    let mut cur = NO_LINE;
+    let mut runs: Vec<[u32; 2]> = Vec::new();
+    // Whether the last interval was on the last line.
+    let mut on_line = false;
     let value = |s: f64| {
         let (c, tau) = tf.eval(s);
         [c[0], c[1], c[2], tau]
     };
-    for (i, p) in piece.iter_mut().enumerate() {
+    for i in 0..n - 1 {
         let (a, b) = (at(i), at(i + 1));
         let (va, vb) = (value(a), value(b));
         let bent = !tf.points_between(a, b).is_empty();
-        if bent
-            || va[3] > TAU_MAX
-            || vb[3] > TAU_MAX
-            || b <= a
-            || b.is_nan()
-            || lines.len() >= NO_LINE as usize
-        {
-            cur = NO_LINE;
+        if bent || va[3] > TAU_MAX || vb[3] > TAU_MAX || b <= a || b.is_nan() {
+            on_line = false;
             continue;
         }
         // A control point at the interval's start begins a new piece.
         let k = tf.points.partition_point(|q| q.s < a);
-        if cur == NO_LINE || tf.points.get(k).is_some_and(|q| q.s == a) {
+        if !on_line || tf.points.get(k).is_some_and(|q| q.s == a) {
             let c1: [f64; 4] = std::array::from_fn(|c| (vb[c] - va[c]) / (b - a));
             lines.push(TfLine {
                 c0: std::array::from_fn(|c| (va[c] - c1[c] * a) as f32),
                 c1: c1.map(|v| v as f32),
             });
-            cur = (lines.len() - 1) as u16;
+            runs.push([i as u32, i as u32]);
+            on_line = true;
         }
-        *p = cur;
+        if let Some(r) = runs.last_mut() {
+            r[1] = i as u32 + 1;
+        }
     }
-    (piece, lines)
+    (lines, runs)
 }

@@ -95,14 +95,28 @@ pub struct CpuPt {
     fast: bool,
 }
 
+/// The integrator, held once: its f32 fast path where it has one (and it is enabled), which
+/// then shades every fragment, else the f64 integrator.
+enum Shading {
+    F32(FastIntegrator),
+    F64(Box<dyn Integrator>),
+}
+
+impl Shading {
+    fn f32(&self) -> Option<&FastIntegrator> {
+        match self {
+            Shading::F32(f) => Some(f),
+            Shading::F64(_) => None,
+        }
+    }
+}
+
 struct Prepared {
     /// Vertex positions in the frame centred on the bounding box, then f32 (CONVENTIONS §1).
     pos: Vec<[f32; 3]>,
     /// Transfer-function coordinate per vertex.
     s: Vec<f32>,
-    integrator: Box<dyn Integrator>,
-    /// The f32 fast path of `integrator` (none for `exact`, or when disabled).
-    fast: Option<FastIntegrator>,
+    shading: Shading,
     /// 1 / L.
     inv_l: f64,
     tets: usize,
@@ -184,7 +198,11 @@ impl Renderer for CpuPt {
     fn prepare(&mut self, mesh: &Mesh, tf: &TransferFunction) -> Result<()> {
         self.state = None;
         self.scratch = Scratch::default();
-        let integrator = integrator(&self.integrator_name, tf)?;
+        let fast = self.fast.then(|| FastIntegrator::new(&self.integrator_name, tf));
+        let shading = match fast.flatten() {
+            Some(f) => Shading::F32(f),
+            None => Shading::F64(integrator(&self.integrator_name, tf)?),
+        };
         let c = mesh.bbox().center();
         let l = mesh.diagonal();
         let map = tf.scalar_map(mesh.scalar_range());
@@ -198,16 +216,10 @@ impl Renderer for CpuPt {
             .par_iter()
             .map(|&v| map.s(v) as f32)
             .collect();
-        let fast = if self.fast {
-            FastIntegrator::new(&self.integrator_name, tf)
-        } else {
-            None
-        };
         self.state = Some(Prepared {
             pos,
             s,
-            integrator,
-            fast,
+            shading,
             inv_l: if l > 0.0 { 1.0 / l } else { 0.0 },
             tets: mesh.num_tets(),
         });
@@ -235,7 +247,7 @@ impl Renderer for CpuPt {
         }
         let persp = camera.projection == Projection::Persp;
         // The fast path: ortho with an f32 integrator (see `fast`).
-        let fast = st.fast.as_ref().filter(|_| !persp);
+        let fast = st.shading.f32().filter(|_| !persp);
         let (ntx, nty) = (w.div_ceil(TILE), h.div_ceil(TILE));
 
         // 1. Project and classify.
@@ -253,7 +265,7 @@ impl Renderer for CpuPt {
         sc.order = order;
         let sort_ms = ms_since(t1);
         let st = self.state.as_ref().expect("prepared");
-        let fast = st.fast.as_ref().filter(|_| !persp);
+        let fast = st.shading.f32().filter(|_| !persp);
 
         // 3. Draw: bin in sorted order, then render the tiles in parallel.
         let t2 = Instant::now();
@@ -273,7 +285,7 @@ impl Renderer for CpuPt {
                 .count()
         };
         let pairs = bins.items.len();
-        let tiles: Vec<(Vec<[f32; 4]>, u64)> = match (fast, &st.fast) {
+        let tiles: Vec<(Vec<[f32; 4]>, u64)> = match (fast, &st.shading) {
             (Some(integ), _) => (0..ntiles)
                 .into_par_iter()
                 .map(|k| {
@@ -281,7 +293,7 @@ impl Renderer for CpuPt {
                     fast::draw_tile(&sc.fast, bins.tile(k), integ, t, (w, h))
                 })
                 .collect(),
-            (None, Some(integ)) => draw_tiles(
+            (None, Shading::F32(integ)) => draw_tiles(
                 DrawCtx {
                     tets: mesh.tets(),
                     pos: &st.pos,
@@ -297,14 +309,14 @@ impl Renderer for CpuPt {
                 ntx,
                 ntiles,
             ),
-            (None, None) => draw_tiles(
+            (None, Shading::F64(integ)) => draw_tiles(
                 DrawCtx {
                     tets: mesh.tets(),
                     pos: &st.pos,
                     verts: &sc.verts,
                     rec: &sc.tets,
                     s: &st.s,
-                    integ: st.integrator.as_ref(),
+                    integ: integ.as_ref(),
                     camera,
                     persp,
                     inv_l: st.inv_l,

@@ -169,7 +169,7 @@ fn fast_path_matches_f64_path() {
                     let mut r = CpuPt::new("centroid", integ).unwrap();
                     r.set_fast_path(fast);
                     r.prepare(&mesh, &tf).unwrap();
-                    assert_eq!(r.state.as_ref().unwrap().fast.is_some(), fast);
+                    assert_eq!(r.state.as_ref().unwrap().shading.f32().is_some(), fast);
                     r.render(&mesh, &cam).unwrap().image
                 };
                 let (f, d) = (img(true), img(false));
@@ -423,7 +423,7 @@ fn span_kernel_matches_per_pixel_kernel() {
             let mut r = CpuPt::new("centroid", "partial").unwrap();
             r.prepare(&mesh, &tf).unwrap();
             r.render(&mesh, &cam).unwrap();
-            let integ = r.state.as_ref().unwrap().fast.as_ref().unwrap();
+            let integ = r.state.as_ref().unwrap().shading.f32().unwrap();
             let sc = &r.scratch;
             let (w, h) = (cam.width, cam.height);
             let ntx = w.div_ceil(TILE);

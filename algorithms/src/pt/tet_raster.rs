@@ -20,27 +20,79 @@
 //!
 //! **Rows.** The silhouette is convex: per row, each silhouette edge bounds the covered centres
 //! from one side at `k = −h/st` (h its biased value at the row's first column, st its step per
-//! pixel). That bound is estimated in f64 and corrected by one exact integer test each way, so the
-//! row's range is exact: every centre in it is inside the silhouette, and [`raster_fan`] covers
-//! the same centres (test: `tet_rasteriser_matches_per_pixel_rasteriser`, and on `post` in
-//! `cpu_pt`'s tests).
+//! pixel). The bound is found exactly once per tet (an f64 estimate corrected by one integer test
+//! each way) and then stepped from row to row in integers, as a line is drawn by Bresenham's
+//! method (Bresenham 1965; see [`SilEdge`]), so the row's range is exact: every centre in it is
+//! inside the silhouette, and [`raster_fan`] covers the same centres (test:
+//! `tet_rasteriser_matches_per_pixel_rasteriser`, and on `post` in `cpu_pt`'s tests).
 //!
 //! [`raster_fan`]: super::raster_fan
 
-use super::raster::{ceil_i64, dir_from_thick, first_centre, floor_i64, last_centre, Edge};
+use super::raster::{dir_from_thick, first_centre, floor_i64, last_centre, Edge};
 use super::{pixel_centre, Case, Fragment, SUBPIXEL};
 
 /// Fan edges at most (class 2: four triangles, five fan edges).
 pub const MAX_FAN: usize = 5;
 
-/// A silhouette edge as the rows see it: biased value at the current row's first column, steps
-/// per pixel (`st`) and per row (`sr`), and `1/st`.
+/// A slanted silhouette edge as the rows see it, in the form `h + k·st` with `st > 0` (an edge
+/// bounding the row from above, whose value falls along the row, is taken in `−k`): `k` is the
+/// first column offset where the edge is positive on the current row, and `r = h + k·st` its
+/// value there, so `0 < r ≤ st`. From row to row `h` grows by `sr`, so `k` moves by `q` or
+/// `q + 1` with `q = ⌊−sr/st⌋`: `r` grows by `step = sr + q·st ∈ (−st, 0]`, and where that
+/// leaves `r ≤ 0` one more column is needed (an exact integer DDA: no division per row).
 #[derive(Clone, Copy, Debug, Default)]
 struct SilEdge {
-    h: i64,
+    k: i64,
+    r: i64,
     st: i64,
+    q: i64,
+    step: i64,
+}
+
+impl SilEdge {
+    /// Edge `h + k·st` (`st > 0`) whose `h` grows by `sr` a row.
+    #[inline(always)]
+    fn new(h: i64, st: i64, sr: i64) -> SilEdge {
+        let inv = 1.0 / st as f64;
+        let k = first_positive(h, st, inv);
+        let q = first_positive(sr, st, inv) - 1;
+        SilEdge {
+            k,
+            r: h + k * st,
+            st,
+            q,
+            step: sr + q * st,
+        }
+    }
+
+    /// To the next row.
+    #[inline(always)]
+    fn advance(&mut self) {
+        self.r += self.step;
+        let up = (self.r <= 0) as i64;
+        self.r += up * self.st;
+        self.k += self.q + up;
+    }
+}
+
+/// The first `k` with `h + k·st > 0` (`st > 0`, `inv = 1/st`): `⌊−h/st⌋ + 1`, from an f64
+/// estimate and one exact test each way. The estimate is within 1: snapped coordinates are below
+/// 2³⁰ ([`MAX_PIXEL_COORD`](super::MAX_PIXEL_COORD)), so |h| < 2⁶², and st is a multiple of
+/// [`SUBPIXEL`] (2¹²), so |h/st| < 2⁵⁰ and the three roundings (h, 1/st, the product) move it by
+/// less than 2⁵⁰·3·2⁻⁵³ < 1/2. The products in the tests are near −h, so they do not overflow.
+#[inline(always)]
+fn first_positive(h: i64, st: i64, inv: f64) -> i64 {
+    let mut k = floor_i64(-(h as f64) * inv) + 1;
+    k -= (h + (k - 1) * st > 0) as i64;
+    k += (h + k * st <= 0) as i64;
+    k
+}
+
+/// A horizontal silhouette edge: a row is inside it or not, by the sign of `h` (growing by `sr`).
+#[derive(Clone, Copy, Debug, Default)]
+struct FlatEdge {
+    h: i64,
     sr: i64,
-    inv: f64,
 }
 
 /// One classified tet, set up for [`TetRaster::rows`] (which consumes its rows: `j0` and `g`
@@ -69,13 +121,14 @@ pub struct TetRaster {
     /// of [`Fragment`]).
     pub inv_x: [f64; 4],
     pub inv_y: [f64; 4],
-    /// Silhouette edges (at most four): first those bounding the row from below (st > 0,
-    /// `nlo` of them), then from above (st < 0, `nhi`), then the horizontal ones (st = 0, a row
-    /// is inside or not), `nsil` in all.
+    /// Silhouette edges (at most four in all): those bounding the row from below (st > 0) in
+    /// `sil[..nlo]`, those from above (st < 0, taken in −k) in `sil[4 - nhi..]`, and the
+    /// horizontal ones in `flat[..nflat]`.
     sil: [SilEdge; 4],
+    flat: [FlatEdge; 4],
     nlo: u8,
     nhi: u8,
-    nsil: u8,
+    nflat: u8,
 }
 
 /// One row of the silhouette: columns `i0..=i1` of row `j`, every centre of it inside the
@@ -143,9 +196,10 @@ impl TetRaster {
             inv_x: [0.0; 4],
             inv_y: [0.0; 4],
             sil: [SilEdge::default(); 4],
+            flat: [FlatEdge::default(); 4],
             nlo: 0,
             nhi: 0,
-            nsil: 0,
+            nflat: 0,
         };
         let dir = |k: usize| dir_from_thick(c, q, c.fan[k] as usize);
         for k in 0..=n {
@@ -175,24 +229,24 @@ impl TetRaster {
             let d = dir(n);
             r.add_silhouette(Edge::new(q[c.fan[n] as usize], [-d[0], -d[1]]), p);
         }
-        // Group the silhouette edges: lower bounds, upper bounds, horizontal.
-        let key = |e: &SilEdge| (e.st <= 0) as u8 + (e.st == 0) as u8;
-        r.sil[..r.nsil as usize].sort_unstable_by_key(key);
-        r.nlo = r.sil[..r.nsil as usize].iter().filter(|e| e.st > 0).count() as u8;
-        r.nhi = r.sil[..r.nsil as usize].iter().filter(|e| e.st < 0).count() as u8;
         Some(r)
     }
 
+    /// Files silhouette edge `e` (biased value at centre `p`) by the side it bounds rows from.
+    #[inline(always)]
     fn add_silhouette(&mut self, e: Edge, p: [i64; 2]) {
-        let st = -e.d[1] * SUBPIXEL;
-        let s = SilEdge {
-            h: e.at(p) + e.bias,
-            st,
-            sr: e.d[0] * SUBPIXEL,
-            inv: if st != 0 { 1.0 / st as f64 } else { 0.0 },
-        };
-        self.sil[self.nsil as usize] = s;
-        self.nsil += 1;
+        let (h, st, sr) = (e.at(p) + e.bias, -e.d[1] * SUBPIXEL, e.d[0] * SUBPIXEL);
+        if st > 0 {
+            self.sil[self.nlo as usize] = SilEdge::new(h, st, sr);
+            self.nlo += 1;
+        } else if st < 0 {
+            // h + k·st = h + (−k)·(−st).
+            self.nhi += 1;
+            self.sil[4 - self.nhi as usize] = SilEdge::new(h, -st, sr);
+        } else {
+            self.flat[self.nflat as usize] = FlatEdge { h, sr };
+            self.nflat += 1;
+        }
     }
 
     /// Calls `f` for each row of the silhouette with a covered centre, top to bottom. Once:
@@ -211,26 +265,21 @@ impl TetRaster {
     pub fn next_row(&mut self) -> Option<TetRow> {
         let last = self.ib - self.ia;
         let (nlo, nhi) = (self.nlo as usize, self.nhi as usize);
-        let (lo, rest) = self.sil[..self.nsil as usize].split_at_mut(nlo);
-        let (hi, flat) = rest.split_at_mut(nhi);
+        let (lo, rest) = self.sil.split_at_mut(nlo);
+        let hi = &mut rest[4 - nlo - nhi..];
+        let flat = &mut self.flat[..self.nflat as usize];
         while self.j0 <= self.j1 {
             let j = self.j0;
             let (mut a, mut b) = (0i64, last);
             for e in lo.iter_mut() {
-                // The first k with h + k·st > 0: ⌊−h/st⌋ + 1, the estimate within 1 of it.
-                let mut k = (floor_i64(-(e.h as f64) * e.inv) + 1).clamp(-1, last + 1);
-                k -= (e.h + (k - 1) * e.st > 0) as i64;
-                k += (e.h + k * e.st <= 0) as i64;
-                a = a.max(k);
-                e.h += e.sr;
+                // The first k with h + k·st > 0.
+                a = a.max(e.k);
+                e.advance();
             }
             for e in hi.iter_mut() {
-                // The last k with h + k·st > 0 (st < 0): ⌈−h/st⌉ − 1.
-                let mut k = (ceil_i64(-(e.h as f64) * e.inv) - 1).clamp(-1, last + 1);
-                k += (e.h + (k + 1) * e.st > 0) as i64;
-                k -= (e.h + k * e.st <= 0) as i64;
-                b = b.min(k);
-                e.h += e.sr;
+                // The last k with h + k·st > 0 (st < 0): −(the first −k with h + (−k)(−st) > 0).
+                b = b.min(-e.k);
+                e.advance();
             }
             for e in flat.iter_mut() {
                 if e.h <= 0 {

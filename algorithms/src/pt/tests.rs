@@ -550,3 +550,54 @@ fn tet_rasteriser_matches_per_pixel_rasteriser() {
     // Every drawn class occurs.
     assert!(classes[1..=4].iter().all(|&n| n > 20), "{classes:?}");
 }
+
+/// The same at the ends of the snapped range (|x| up to 2³⁰, `MAX_PIXEL_COORD`), where the
+/// rows' f64 estimate of each silhouette bound (`first_positive`) has the least room and the
+/// edge values are largest: fans of a few hundred thousand pixels, seen through small clips.
+#[test]
+fn tet_rasteriser_matches_per_pixel_rasteriser_at_extreme_coordinates() {
+    let max = 1i64 << 30;
+    let mut rng = Rng::new(29);
+    let mut total = [0usize; 4];
+    for it in 0..400 {
+        let near = |rng: &mut Rng| rng.int(200 * SUBPIXEL as u64) - 100 * SUBPIXEL;
+        let q: [[i64; 2]; 4] = std::array::from_fn(|_| match it % 4 {
+            // Anywhere in the range, on its ends, or near the clip.
+            0 => std::array::from_fn(|_| rng.int(2 * max as u64 + 1) - max),
+            1 => std::array::from_fn(|_| [-max, max][rng.int(2) as usize]),
+            2 => std::array::from_fn(|_| near(&mut rng)),
+            // Near the clip across, at an end along: edges as steep as the range allows
+            // (|Δx/Δy| up to 2³¹ snapped units), whose row-to-row step needs every bit.
+            _ => {
+                let end = [-max, max][rng.int(2) as usize];
+                if rng.int(2) == 0 {
+                    [near(&mut rng), end]
+                } else {
+                    [end, near(&mut rng)]
+                }
+            }
+        });
+        let v = q.map(|q| ProjVertex {
+            q,
+            ..Default::default()
+        });
+        let g = FanGeometry::new(q, &classify(&v, false, 1.0));
+        let (x, y) = (rng.int(60) - 30, rng.int(60) - 30);
+        for clip in [[x, y, x + 24, y + 24], [-3, -3, 3, 3]] {
+            let mut want = Vec::new();
+            raster_fan(&g, clip, |f| want.push(f));
+            let mut got = Vec::new();
+            if let Some(r) = TetRaster::new(g.case, &q, clip) {
+                r.fragments(|f| got.push(f));
+            }
+            want.sort_by_key(|f: &Fragment| (f.j, f.i));
+            assert_eq!(got.len(), want.len(), "{q:?} clip {clip:?}");
+            for (a, b) in got.iter().zip(&want) {
+                assert_eq!((a.i, a.j, a.tri), (b.i, b.j, b.tri), "{q:?} clip {clip:?}");
+            }
+            total[it % 4] += got.len();
+        }
+    }
+    // Every kind of tet covers centres of the clips.
+    assert!(total.iter().all(|&n| n > 1000), "{total:?}");
+}

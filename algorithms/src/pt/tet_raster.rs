@@ -76,10 +76,12 @@ impl SilEdge {
 }
 
 /// The first `k` with `h + k·st > 0` (`st > 0`, `inv = 1/st`): `⌊−h/st⌋ + 1`, from an f64
-/// estimate and one exact test each way. The estimate is within 1: snapped coordinates are below
-/// 2³⁰ ([`MAX_PIXEL_COORD`](super::MAX_PIXEL_COORD)), so |h| < 2⁶², and st is a multiple of
-/// [`SUBPIXEL`] (2¹²), so |h/st| < 2⁵⁰ and the three roundings (h, 1/st, the product) move it by
-/// less than 2⁵⁰·3·2⁻⁵³ < 1/2. The products in the tests are near −h, so they do not overflow.
+/// estimate and one exact test each way. The estimate is within 1: snapped coordinates are at
+/// most 2³⁰ ([`MAX_PIXEL_COORD`](super::MAX_PIXEL_COORD)), so an edge value, two products of
+/// factors below 2³¹, has |h| < 2⁶³, and st is a nonzero multiple of [`SUBPIXEL`] (2¹²), so
+/// |h/st| < 2⁵¹ and the three roundings (h, 1/st, the product) move it by less than
+/// 2⁵¹·3·2⁻⁵³ < 1. The products in the tests are near −h, so they do not overflow (test:
+/// `tet_rasteriser_matches_per_pixel_rasteriser_at_extreme_coordinates`, with overflow checks).
 #[inline(always)]
 fn first_positive(h: i64, st: i64, inv: f64) -> i64 {
     let mut k = floor_i64(-(h as f64) * inv) + 1;

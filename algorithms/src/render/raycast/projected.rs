@@ -24,6 +24,8 @@
 //! iff `b_C ∧ ¬b_B`, `CAD` iff `b_A ∧ ¬b_C` — exactly one of them for consistent signs. The new
 //! entry triangle is `(X, Y, D)`, of winding `w` again, so no orientation of the cell and no
 //! face-vertex matching is needed: only the local index of the dropped vertex, for the link.
+//! The walk keeps the triangle in three slots and writes `D` into the dropped vertex's slot:
+//! the slots in order are then `(X, Y, D)` rotated, the same circulation, and nothing moves.
 //!
 //! **The crossing** is interpolated with the barycentric weights `|Y→D|, |D→X|, |X→Y|` (the last
 //! carried) of the per-vertex depth along the ray and scalar.
@@ -297,15 +299,23 @@ impl Prepared {
             let mut tet = bt as usize;
             let mut g = tets[tet];
             let mut fin = bf;
+            // The entry triangle in three slots, in circulation order. The exit face X Y D
+            // keeps two of them, X = slot k + 1 and Y = slot k + 2 (mod 3), and drops slot k:
+            // D takes its place, and the slots in order are (X, Y, D) rotated, the new entry
+            // triangle in its circulation order. So a step writes one slot and moves nothing.
             let mut ids = FACE_VERTS[bf].map(|k| g[k]);
             let mut lv = ids.map(|v| fr.local(&self.verts, v));
-            // |product| of the edge opposite each vertex of the entry triangle.
+            // |product| of the edge opposite each slot's vertex.
             let mut opp: [f64; 3] = std::array::from_fn(|k| {
                 let (a, b) = ((k + 1) % 3, (k + 2) % 3);
                 fr.side(self, ctx, (ids[a], &lv[a]), (ids[b], &lv[b]), w).0.abs()
             });
+            // Slot `(i + rot) % 3` holds the i-th vertex of the entry triangle in the order
+            // (X, Y, D) of the step that entered it (the entry face's order at first).
+            let mut rot = 0;
             let mut piece = u32::MAX;
-            let mut e_in = shade.end_next(s_in, &mut piece);
+            // The crossing the next segment starts from (the queue is empty between entries).
+            q.ends[q.n] = shade.end_next(s_in, &mut piece);
             loop {
                 stats.steps += 1;
                 if stats.steps as usize > self.max_steps {
@@ -319,7 +329,7 @@ impl Prepared {
                 let ld = fr.local(&self.verts, id);
                 let (pa, ba) = fr.side(self, ctx, (ids[0], &lv[0]), (id, &ld), w);
                 let (pb, bb) = fr.side(self, ctx, (ids[1], &lv[1]), (id, &ld), w);
-                // k: the entry vertex the exit face drops (ABD drops C, BCD A, CAD B).
+                // k: the slot the exit face drops (ABD drops C, BCD A, CAD B).
                 let mut p = [pa, pb, 0.0];
                 let k = if !ba && bb {
                     2
@@ -331,19 +341,18 @@ impl Prepared {
                         (true, _, false) => 1,
                         _ => {
                             stats.fallbacks += 1;
-                            closest_face(p, w)
+                            // Its ties go to the first face in the order (X, Y, D) of the
+                            // previous step, as when the walk kept its vertices in that order.
+                            let pr = std::array::from_fn(|i| p[(i + rot) % 3]);
+                            (closest_face(pr, w) + rot) % 3
                         }
                     }
                 };
                 // The exit face X Y D and the weights of X, Y, D: |Y → D|, |D → X|, |X → Y|
-                // (carried), spelled out per case so that nothing is indexed at run time.
-                let [la, lb, lc] = lv;
-                let [ia, ib, ic] = ids;
-                let (lx, ly, ix, iy, iz, wt) = match k {
-                    2 => (la, lb, ia, ib, ic, [p[1].abs(), p[0].abs(), opp[2]]),
-                    0 => (lb, lc, ib, ic, ia, [p[2].abs(), p[1].abs(), opp[0]]),
-                    _ => (lc, la, ic, ia, ib, [p[0].abs(), p[2].abs(), opp[1]]),
-                };
+                // (carried).
+                let (x, y) = ((k + 1) % 3, (k + 2) % 3);
+                let (lx, ly) = (&lv[x], &lv[y]);
+                let wt = [p[y].abs(), p[x].abs(), opp[k]];
                 let sum = wt[0] + wt[1] + wt[2];
                 let wn = if sum > 0.0 && sum.is_finite() {
                     let r = 1.0 / sum;
@@ -358,7 +367,7 @@ impl Prepared {
                 let e_out = shade.end_next(s, &mut piece);
                 if l > 0.0 {
                     let n = q.n;
-                    (q.f[n], q.b[n], q.l[n]) = (e_in, e_out, l);
+                    (q.ends[n + 1], q.l[n]) = (e_out, l);
                     marks[n] = [
                         stats.steps,
                         stats.fallbacks,
@@ -370,7 +379,16 @@ impl Prepared {
                     {
                         break 'rays;
                     }
+                } else {
+                    // No segment: the next one starts from this crossing. The queue's last
+                    // crossing is the back of its last segment, so a queue that holds any is
+                    // shaded first (rare: a step of no length, through an edge or a flat cell).
+                    if drain_cold(shade, &mut q, &marks, &mut acc, &mut stats, &fr, ctx) {
+                        break 'rays;
+                    }
+                    q.ends[0] = e_out;
                 }
+                let iz = ids[k];
                 let fz = local_index(&g, iz);
                 let nb = if fz < 4 { self.next[tet][fz] } else { BOUNDARY };
                 if nb == BOUNDARY {
@@ -385,14 +403,15 @@ impl Prepared {
                     };
                     break;
                 }
-                ids = [ix, iy, id];
-                lv = [lx, ly, ld];
-                opp = wt;
+                // D takes the dropped slot: X keeps |Y → D| opposite it, Y |D → X|, and D
+                // |X → Y|, which slot k already holds.
+                (ids[k], lv[k]) = (id, ld);
+                (opp[x], opp[y]) = (wt[0], wt[1]);
+                rot = x;
                 tet = nb as usize / 4;
                 fin = nb as usize % 4;
                 g = tets[tet];
                 t_in = t_out;
-                e_in = e_out;
             }
             found = entry(t_min - self.t_eps, exclude, u32::MAX);
         }
@@ -423,6 +442,8 @@ fn drain<S: Shade>(
     }
     let out = shade.segments(q);
     let n = std::mem::take(&mut q.n);
+    // The last crossing is the front of the walk's next segment.
+    q.ends[0] = q.ends[n];
     for (k, m) in marks.iter().enumerate().take(n) {
         composite_under(acc, out.get(k));
         if 1.0 - acc.alpha < TERMINATE_T {
@@ -434,6 +455,21 @@ fn drain<S: Shade>(
         }
     }
     false
+}
+
+/// [`drain`] out of line, for the walk's rare paths.
+#[cold]
+#[inline(never)]
+fn drain_cold<S: Shade>(
+    shade: &S,
+    q: &mut Queue<S::End>,
+    marks: &[[u64; 4]; QUEUE],
+    acc: &mut Segment,
+    stats: &mut RayStats,
+    fr: &Frame2,
+    ctx: &RayCtx,
+) -> bool {
+    drain(shade, q, marks, acc, stats, fr, ctx)
 }
 
 /// No exit face is consistent (a flat cell, or signs from a degenerate tie): the face whose
@@ -452,3 +488,4 @@ fn closest_face(p: [f64; 3], w: bool) -> usize {
     }
     best
 }
+

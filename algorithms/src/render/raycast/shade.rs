@@ -25,13 +25,13 @@ pub(super) trait Shade: Sync {
     }
     /// The segment between two crossings of optical length `l > 0`.
     fn segment(&self, front: &Self::End, back: &Self::End, l: f64) -> Segment;
-    /// The segments of the first `q.n` queued pairs of crossings, each what
-    /// [`Shade::segment`] gives for it, bit for bit (`partial` computes them lane-wise).
+    /// The first `q.n` queued segments, each what [`Shade::segment`] gives for it, bit for
+    /// bit (`partial` computes them lane-wise).
     #[inline(always)]
     fn segments(&self, q: &Queue<Self::End>) -> Lanes {
         let mut out = Lanes::default();
         for k in 0..q.n {
-            let seg = self.segment(&q.f[k], &q.b[k], q.l[k]);
+            let seg = self.segment(&q.ends[k], &q.ends[k + 1], q.l[k]);
             out.set(k, seg);
         }
         out
@@ -41,11 +41,12 @@ pub(super) trait Shade: Sync {
 /// Segments a ray queues before it shades them at once ([`Shade::segments`]).
 pub(super) const QUEUE: usize = 8;
 
-/// A ray's queued segments: their crossings and optical lengths.
+/// A ray's queued segments as the run of crossings they join: segment `k` runs from
+/// `ends[k]` to `ends[k + 1]` with optical length `l[k]`. Consecutive segments share their
+/// crossing, so each crossing is stored once (`ends[n]` is the front of the segment to come).
 #[derive(Clone, Copy, Default)]
 pub(super) struct Queue<E> {
-    pub(super) f: [E; QUEUE],
-    pub(super) b: [E; QUEUE],
+    pub(super) ends: [E; QUEUE + 1],
     pub(super) l: [f64; QUEUE],
     pub(super) n: usize,
 }
@@ -289,21 +290,22 @@ impl pulp::WithSimd for PartialLanes<'_> {
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, _simd: S) -> Lanes {
         let q = self.q;
-        // 0. The queue's crossings, transposed into lanes (so that the passes vectorise).
-        let mut sf = [0.0; QUEUE];
-        let mut sb = [0.0; QUEUE];
-        let mut tf = [0.0; QUEUE];
-        let mut tb = [0.0; QUEUE];
-        let mut cf = [[0.0; QUEUE]; 3];
-        let mut cb = [[0.0; QUEUE]; 3];
-        for k in 0..QUEUE {
-            let (f, b) = (&q.f[k], &q.b[k]);
-            (sf[k], sb[k], tf[k], tb[k]) = (f.s, b.s, f.tau, b.tau);
-            for c in 0..3 {
-                cf[c][k] = f.c[c];
-                cb[c][k] = b.c[c];
+        // 0. The queue's crossings, transposed into lanes (so that the passes vectorise):
+        //    segment k's front is crossing k, its back crossing k + 1.
+        let mut s = [0.0; QUEUE + 1];
+        let mut t = [0.0; QUEUE + 1];
+        let mut c = [[0.0; QUEUE + 1]; 3];
+        for (k, e) in q.ends.iter().enumerate() {
+            (s[k], t[k]) = (e.s, e.tau);
+            for (ch, v) in c.iter_mut().zip(e.c) {
+                ch[k] = v;
             }
         }
+        let front = |a: &[f64; QUEUE + 1]| -> [f64; QUEUE] { std::array::from_fn(|k| a[k]) };
+        let back = |a: &[f64; QUEUE + 1]| -> [f64; QUEUE] { std::array::from_fn(|k| a[k + 1]) };
+        let (sf, sb, tf, tb) = (front(&s), back(&s), front(&t), back(&t));
+        let cf = c.each_ref().map(front);
+        let cb = c.each_ref().map(back);
         // 1. The optical depths of the ends, ζ, α and the Ψ table's coordinates.
         let mut ok = [0.0; QUEUE];
         let (mut zeta, mut alpha) = ([0.0; QUEUE], [0.0; QUEUE]);
@@ -471,18 +473,20 @@ mod tests {
                 n: 1 + round % QUEUE,
                 ..Default::default()
             };
-            for k in 0..QUEUE {
-                let mut s = [next(), next()];
-                if round % 7 == 0 {
-                    s[k % 2] = odd[(round / 7 + k) % odd.len()];
-                }
-                q.f[k] = rc.end(s[0]);
-                q.b[k] = rc.end(s[1]);
-                q.l[k] = 10f64.powf(-12.0 + 15.0 * next());
+            for k in 0..=QUEUE {
+                let s = if round % 7 == 0 && k % 2 == round % 2 {
+                    odd[(round / 7 + k) % odd.len()]
+                } else {
+                    next()
+                };
+                q.ends[k] = rc.end(s);
+            }
+            for l in &mut q.l {
+                *l = 10f64.powf(-12.0 + 15.0 * next());
             }
             let lanes = rc.segments(&q);
             for k in 0..q.n {
-                let (a, b) = (lanes.get(k), rc.segment(&q.f[k], &q.b[k], q.l[k]));
+                let (a, b) = (lanes.get(k), rc.segment(&q.ends[k], &q.ends[k + 1], q.l[k]));
                 let bits = |g: Segment| [g.rgb[0], g.rgb[1], g.rgb[2], g.alpha].map(f64::to_bits);
                 assert_eq!(bits(a), bits(b), "round {round}, lane {k}");
             }

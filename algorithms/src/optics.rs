@@ -529,14 +529,22 @@ impl PsiTable {
             (fi[k], ti[k]) = coord(gf[k]);
             (fj[k], tj[k]) = coord(gb[k]);
         }
+        // The cells' first indices `j·n + i`, lane-wise: `i`, `j` are integers in `[0, n − 2]`,
+        // so `i + 2⁵²` holds `i` in its low mantissa bits, exactly (one add and one integer
+        // subtraction a lane; `as usize`'s saturating conversion has no AVX2 form and was a
+        // sixth of this function).
+        const TWO52: f64 = 4_503_599_627_370_496.0;
+        let int = |x: f64| ((x + TWO52).to_bits() - TWO52.to_bits()) as usize;
+        let base: [usize; N] = std::array::from_fn(|k| int(fj[k]) * n + int(fi[k]));
         let d = &self.data;
         let mut v = [[0.0f64; N]; 4];
         for k in 0..N {
-            let (i, j) = (fi[k] as usize, fj[k] as usize);
-            v[0][k] = d[j * n + i] as f64;
-            v[1][k] = d[j * n + i + 1] as f64;
-            v[2][k] = d[(j + 1) * n + i] as f64;
-            v[3][k] = d[(j + 1) * n + i + 1] as f64;
+            // One bounds check: the cell's four values lie in `d[b .. b + n + 2]`.
+            let c = &d[base[k]..base[k] + n + 2];
+            v[0][k] = c[0] as f64;
+            v[1][k] = c[1] as f64;
+            v[2][k] = c[n] as f64;
+            v[3][k] = c[n + 1] as f64;
         }
         std::array::from_fn(|k| {
             let v0 = v[0][k] + (v[1][k] - v[0][k]) * ti[k];

@@ -383,7 +383,7 @@ impl Prepared {
                     // No segment: the next one starts from this crossing. The queue's last
                     // crossing is the back of its last segment, so a queue that holds any is
                     // shaded first (rare: a step of no length, through an edge or a flat cell).
-                    if drain_cold(shade, &mut q, &marks, &mut acc, &mut stats, &fr, ctx) {
+                    if drain(shade, &mut q, &marks, &mut acc, &mut stats, &fr, ctx) {
                         break 'rays;
                     }
                     q.ends[0] = e_out;
@@ -455,21 +455,6 @@ fn drain<S: Shade>(
         }
     }
     false
-}
-
-/// [`drain`] out of line, for the walk's rare paths.
-#[cold]
-#[inline(never)]
-fn drain_cold<S: Shade>(
-    shade: &S,
-    q: &mut Queue<S::End>,
-    marks: &[[u64; 4]; QUEUE],
-    acc: &mut Segment,
-    stats: &mut RayStats,
-    fr: &Frame2,
-    ctx: &RayCtx,
-) -> bool {
-    drain(shade, q, marks, acc, stats, fr, ctx)
 }
 
 /// No exit face is consistent (a flat cell, or signs from a degenerate tie): the face whose

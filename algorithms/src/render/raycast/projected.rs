@@ -28,7 +28,13 @@
 //! the slots in order are then `(X, Y, D)` rotated, the same circulation, and nothing moves.
 //!
 //! **The crossing** is interpolated with the barycentric weights `|Y→D|, |D→X|, |X→Y|` (the last
-//! carried) of the per-vertex depth along the ray and scalar.
+//! carried) of the per-vertex depth along the ray and scalar. A step only queues the weights and
+//! the three vertices' depths and scalars; the normalisation (a division), the blend, the
+//! segment's length and the TF are computed for a queue at a time ([`drain`]), lane-wise where
+//! they can be, so that a step's chain of dependent operations ends at its exit face: the
+//! out-of-order window holds about one step, and a step that waited for its own division and TF
+//! held back the next one's loads. A step of no length queues a segment of no length, which
+//! composites as nothing, so the queue never has to be shaded early.
 
 use std::cell::Cell;
 
@@ -284,10 +290,9 @@ impl Prepared {
                 .first_entry(self, tets, front, ctx, t_min, exclude, seed),
         };
         let mut found = entry(t_min, exclude, *seed);
-        // Segments wait in `q` and are shaded a queue at a time, then composited in order.
-        let mut q = Queue::<S::End>::default();
-        let mut marks = [[0u64; 4]; QUEUE];
-        'rays: while let Some((bt, bf, mut t_in, s_in, leaf)) = found.take() {
+        // Crossings wait in `run` and are interpolated, shaded and composited a queue at a time.
+        let mut run = Run::<S::End>::default();
+        'rays: while let Some((bt, bf, t_in, s_in, leaf)) = found.take() {
             if first {
                 *seed = leaf;
             } else {
@@ -313,14 +318,15 @@ impl Prepared {
             // Slot `(i + rot) % 3` holds the i-th vertex of the entry triangle in the order
             // (X, Y, D) of the step that entered it (the entry face's order at first).
             let mut rot = 0;
-            let mut piece = u32::MAX;
             // The crossing the next segment starts from (the queue is empty between entries).
-            q.ends[q.n] = shade.end_next(s_in, &mut piece);
+            run.hint = u32::MAX;
+            run.q.ends[0] = shade.end_next(s_in, &mut run.hint);
+            run.t = t_in;
             loop {
                 stats.steps += 1;
                 if stats.steps as usize > self.max_steps {
                     // A ray that turns opaque on its queued segments stops before the limit.
-                    if !drain(shade, &mut q, &marks, &mut acc, &mut stats, &fr, ctx) {
+                    if !drain(shade, &mut run, self.inv_l, &mut acc, &mut stats, &fr, ctx) {
                         stats.lost += 1;
                     }
                     break 'rays;
@@ -349,53 +355,34 @@ impl Prepared {
                     }
                 };
                 // The exit face X Y D and the weights of X, Y, D: |Y → D|, |D → X|, |X → Y|
-                // (carried).
+                // (carried), queued with the three vertices' depths and scalars: the crossing
+                // is interpolated when the queue is shaded ([`drain`]).
                 let (x, y) = ((k + 1) % 3, (k + 2) % 3);
-                let (lx, ly) = (&lv[x], &lv[y]);
                 let wt = [p[y].abs(), p[x].abs(), opp[k]];
-                let sum = wt[0] + wt[1] + wt[2];
-                let wn = if sum > 0.0 && sum.is_finite() {
-                    let r = 1.0 / sum;
-                    wt.map(|v| v * r)
-                } else {
-                    [1.0 / 3.0; 3]
-                };
-                let tt = wn[0] * lx.z + wn[1] * ly.z + wn[2] * ld.z;
-                let s = wn[0] * lx.s + wn[1] * ly.s + wn[2] * ld.s;
-                let t_out = tt.max(t_in);
-                let l = (t_out - t_in) * self.inv_l;
-                let e_out = shade.end_next(s, &mut piece);
-                if l > 0.0 {
-                    let n = q.n;
-                    (q.ends[n + 1], q.l[n]) = (e_out, l);
-                    marks[n] = [
-                        stats.steps,
-                        stats.fallbacks,
-                        fr.fallbacks.get(),
-                        ctx.fallbacks.get(),
-                    ];
-                    q.n += 1;
-                    if q.n == QUEUE && drain(shade, &mut q, &marks, &mut acc, &mut stats, &fr, ctx)
-                    {
-                        break 'rays;
-                    }
-                } else {
-                    // No segment: the next one starts from this crossing. The queue's last
-                    // crossing is the back of its last segment, so a queue that holds any is
-                    // shaded first (rare: a step of no length, through an edge or a flat cell).
-                    if drain(shade, &mut q, &marks, &mut acc, &mut stats, &fr, ctx) {
-                        break 'rays;
-                    }
-                    q.ends[0] = e_out;
+                let n = run.q.n;
+                for (c, v) in [&lv[x], &lv[y], &ld].into_iter().enumerate() {
+                    run.wt[c][n] = wt[c];
+                    run.z[c][n] = v.z;
+                    run.s[c][n] = v.s;
+                }
+                run.marks[n] = [
+                    stats.steps,
+                    stats.fallbacks,
+                    fr.fallbacks.get(),
+                    ctx.fallbacks.get(),
+                ];
+                run.q.n += 1;
+                if run.q.n == QUEUE && drain(shade, &mut run, self.inv_l, &mut acc, &mut stats, &fr, ctx) {
+                    break 'rays;
                 }
                 let iz = ids[k];
                 let fz = local_index(&g, iz);
                 let nb = if fz < 4 { self.next[tet][fz] } else { BOUNDARY };
                 if nb == BOUNDARY {
-                    if drain(shade, &mut q, &marks, &mut acc, &mut stats, &fr, ctx) {
+                    if drain(shade, &mut run, self.inv_l, &mut acc, &mut stats, &fr, ctx) {
                         break 'rays;
                     }
-                    t_min = t_out;
+                    t_min = run.t;
                     exclude = if fz < 4 {
                         (4 * tet + fz) as u32
                     } else {
@@ -411,7 +398,6 @@ impl Prepared {
                 tet = nb as usize / 4;
                 fin = nb as usize % 4;
                 g = tets[tet];
-                t_in = t_out;
             }
             found = entry(t_min - self.t_eps, exclude, u32::MAX);
         }
@@ -423,35 +409,97 @@ impl Prepared {
     }
 }
 
-/// Shades the queued segments and composites them in order; `true` when the ray terminated on
-/// one of them, with the counters put back to what they were when that segment was queued
-/// (`marks`: steps, walk fallbacks and the two predicates' filter fallbacks), so that a ray
-/// counts the steps it would have counted compositing segment by segment.
+/// A ray's queued crossings, before and after they are interpolated: per queued step the three
+/// weights of the exit face's vertices and their depths and scalars (lane `k` of each row, the
+/// step that queued segment `k`), the counters as they were when it was queued, the depth of
+/// the queue's first crossing (`q.ends[0]`) and the TF piece of the last crossing evaluated.
+#[derive(Clone, Copy)]
+struct Run<E> {
+    q: Queue<E>,
+    wt: [[f64; QUEUE]; 3],
+    z: [[f64; QUEUE]; 3],
+    s: [[f64; QUEUE]; 3],
+    /// Steps, walk fallbacks and the two predicates' filter fallbacks.
+    marks: [[u64; 4]; QUEUE],
+    t: f64,
+    hint: u32,
+}
+
+impl<E: Copy + Default> Default for Run<E> {
+    fn default() -> Self {
+        Run {
+            q: Queue::default(),
+            wt: [[0.0; QUEUE]; 3],
+            z: [[0.0; QUEUE]; 3],
+            s: [[0.0; QUEUE]; 3],
+            marks: [[0; 4]; QUEUE],
+            t: 0.0,
+            hint: u32::MAX,
+        }
+    }
+}
+
+/// Interpolates the queued crossings, shades the segments between them and composites them in
+/// order; `true` when the ray terminated on one of them, with the counters put back to what
+/// they were when that segment was queued, so that a ray counts the steps it would have counted
+/// compositing segment by segment.
+///
+/// A crossing's depth and scalar are the barycentric blend of its face's vertices with the
+/// normalised weights (a third each where they sum to 0 or overflow), lane by lane; then, in
+/// order, its depth no nearer than the previous crossing's (`t_out = max(t, t_in)`), the
+/// segment's optical length `(t_out − t_in)/L` and the TF at its scalar. Segments of no length
+/// (a step through an edge or a flat cell) are not composited: the next one starts from their
+/// back crossing.
 #[inline(always)]
 fn drain<S: Shade>(
     shade: &S,
-    q: &mut Queue<S::End>,
-    marks: &[[u64; 4]; QUEUE],
+    run: &mut Run<S::End>,
+    inv_l: f64,
     acc: &mut Segment,
     stats: &mut RayStats,
     fr: &Frame2,
     ctx: &RayCtx,
 ) -> bool {
-    if q.n == 0 {
+    let n = run.q.n;
+    if n == 0 {
         return false;
     }
-    let out = shade.segments(q);
-    let n = std::mem::take(&mut q.n);
+    let (mut tt, mut sv) = ([0.0; QUEUE], [0.0; QUEUE]);
+    for k in 0..QUEUE {
+        let w = [run.wt[0][k], run.wt[1][k], run.wt[2][k]];
+        let sum = w[0] + w[1] + w[2];
+        let r = 1.0 / sum;
+        let wn = if (sum > 0.0) & sum.is_finite() {
+            w.map(|v| v * r)
+        } else {
+            [1.0 / 3.0; 3]
+        };
+        tt[k] = wn[0] * run.z[0][k] + wn[1] * run.z[1][k] + wn[2] * run.z[2][k];
+        sv[k] = wn[0] * run.s[0][k] + wn[1] * run.s[1][k] + wn[2] * run.s[2][k];
+    }
+    let mut t_in = run.t;
+    for k in 0..n {
+        let t_out = tt[k].max(t_in);
+        run.q.l[k] = (t_out - t_in) * inv_l;
+        t_in = t_out;
+        run.q.ends[k + 1] = shade.end_next(sv[k], &mut run.hint);
+    }
+    run.t = t_in;
+    let out = shade.segments(&run.q);
+    run.q.n = 0;
     // The last crossing is the front of the walk's next segment.
-    q.ends[0] = q.ends[n];
-    for (k, m) in marks.iter().enumerate().take(n) {
-        composite_under(acc, out.get(k));
-        if 1.0 - acc.alpha < TERMINATE_T {
-            stats.steps = m[0];
-            stats.fallbacks = m[1];
-            fr.fallbacks.set(m[2]);
-            ctx.fallbacks.set(m[3]);
-            return true;
+    run.q.ends[0] = run.q.ends[n];
+    for (k, m) in run.marks.iter().enumerate().take(n) {
+        // (A step of no length queued a segment of no length: nothing to composite.)
+        if run.q.l[k] > 0.0 {
+            composite_under(acc, out.get(k));
+            if 1.0 - acc.alpha < TERMINATE_T {
+                stats.steps = m[0];
+                stats.fallbacks = m[1];
+                fr.fallbacks.set(m[2]);
+                ctx.fallbacks.set(m[3]);
+                return true;
+            }
         }
     }
     false

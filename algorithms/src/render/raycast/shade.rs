@@ -26,13 +26,16 @@ pub(super) trait Shade: Sync {
     /// The segment between two crossings of optical length `l > 0`.
     fn segment(&self, front: &Self::End, back: &Self::End, l: f64) -> Segment;
     /// The first `q.n` queued segments, each what [`Shade::segment`] gives for it, bit for
-    /// bit (`partial` computes them lane-wise).
+    /// bit (`partial` computes them lane-wise); a segment of no length (`l ≤ 0`, which the
+    /// caller does not composite) may be anything.
     #[inline(always)]
     fn segments(&self, q: &Queue<Self::End>) -> Lanes {
         let mut out = Lanes::default();
         for k in 0..q.n {
-            let seg = self.segment(&q.ends[k], &q.ends[k + 1], q.l[k]);
-            out.set(k, seg);
+            if q.l[k] > 0.0 {
+                let seg = self.segment(&q.ends[k], &q.ends[k + 1], q.l[k]);
+                out.set(k, seg);
+            }
         }
         out
     }

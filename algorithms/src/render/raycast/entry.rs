@@ -181,6 +181,22 @@ impl EntryGrid {
         })
     }
 
+    /// A guess at the work of each band of `rows` image rows (from the top): the grid cells
+    /// over it that hold a face, that is the part of the band the mesh covers. (The number of
+    /// faces would be a worse guess: a curvilinear grid's boundary faces crowd at the
+    /// silhouette, where rays are short.) Only the order bands are handed out in depends on
+    /// it, never a pixel.
+    pub(super) fn band_weights(&self, rows: usize) -> Vec<u64> {
+        let h = self.ny * CELL;
+        (0..h.div_ceil(rows))
+            .map(|b| {
+                let (c0, c1) = (b * rows / CELL, ((b + 1) * rows).div_ceil(CELL).min(self.ny));
+                let cells = &self.start[c0 * self.nx..=c1 * self.nx];
+                cells.windows(2).filter(|p| p[1] > p[0]).count() as u64
+            })
+            .collect()
+    }
+
     /// The nearest boundary face the ray of pixel `(i, j)` enters through at depth ≥ `t_min`,
     /// other than `exclude` (4·tet + face): (tet, face, depth, scalar, leaf index), as
     /// [`Bvh::first_entry`] with no seed.

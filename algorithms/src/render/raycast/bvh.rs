@@ -319,9 +319,7 @@ impl Bvh {
                 for &bf in &self.faces[n.start as usize..(n.start + n.count) as usize] {
                     let (t, f) = (bf as usize / 4, bf as usize % 4);
                     let tri = FACE_VERTS[f].map(|k| tets[t][k]);
-                    if st.cross_face(ray, tri, true).is_some()
-                        || st.cross_face(ray, tri, false).is_some()
-                    {
+                    if st.crosses_face(ray, tri) {
                         return true;
                     }
                 }

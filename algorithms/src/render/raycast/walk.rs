@@ -98,6 +98,15 @@ impl Prepared {
         Some(self.interpolate(ray, tri, w))
     }
 
+    /// Whether the ray crosses triangle `tri` in either direction: the products of its three
+    /// edges in circulation order have one sign. The same decisions as
+    /// `cross_face(ray, tri, true)` or `cross_face(ray, tri, false)`, each product taken once.
+    #[inline]
+    pub(super) fn crosses_face(&self, ray: &RayCtx, tri: [u32; 3]) -> bool {
+        let s0 = self.edge(ray, tri[1], tri[2]).1;
+        s0 == self.edge(ray, tri[2], tri[0]).1 && s0 == self.edge(ray, tri[0], tri[1]).1
+    }
+
     #[inline]
     fn interpolate(&self, ray: &RayCtx, tri: [u32; 3], w: [f64; 3]) -> (f64, f64) {
         let sum = w[0] + w[1] + w[2];

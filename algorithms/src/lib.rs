@@ -17,6 +17,7 @@ pub mod optics_f32;
 pub mod plugin;
 pub mod pt;
 pub mod render;
+pub mod schedule;
 pub mod sort;
 pub mod tf;
 

@@ -21,8 +21,6 @@ mod projected;
 mod shade;
 mod walk;
 
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Mutex;
 use std::time::Instant;
 
 use glam::DVec3;
@@ -34,6 +32,7 @@ use crate::error::{Error, Result};
 use crate::image::Image;
 use crate::mesh::{signed_volume6, Mesh, BOUNDARY};
 use crate::optics::INTEGRATORS;
+use crate::schedule::heaviest_first;
 use crate::tf::TransferFunction;
 use bvh::Bvh;
 use predicate::RayCtx;
@@ -302,11 +301,9 @@ impl Prepared {
     /// (~13K cells) does not. Every pixel is computed alone, so the order changes no bit.
     ///
     /// The bands are handed out one at a time, the heaviest first by the entry grid's guess
-    /// ([`entry::EntryGrid::band_weights`]), so that the threads end within about a light
-    /// band of each other. Split adaptively by rayon, the image went half to each of two
-    /// threads, and the one with the lighter half waited (post at 512², view 30,20: 257
-    /// against 304 ms of walking); bands stolen one at a time in image order still ended
-    /// 0–39 ms apart (a heavy band last), against under 1 ms heaviest first.
+    /// ([`entry::EntryGrid::band_weights`], [`heaviest_first`]), so that the threads end
+    /// within about a light band of each other: stolen one at a time in image order they
+    /// ended 0–39 ms apart on post at 512² (a heavy band last), heaviest first under 1 ms.
     fn tiles<S: Shade>(
         &self,
         mesh: &Mesh,
@@ -331,20 +328,6 @@ impl Prepared {
         let scratch = front.bytes()
             + grid.as_ref().map_or(0, |g| g.bytes())
             + shared.as_ref().map_or(0, |f| f.bytes());
-        // The bands heaviest first by the entry grid's guess (in image order without a grid),
-        // handed out one at a time, so that the last to be cast are the lightest.
-        let mut bands: Vec<(usize, &mut [[f64; 4]])> =
-            px.chunks_mut(w * TILE).enumerate().collect();
-        if let Some(g) = &grid {
-            let wt = g.band_weights(TILE);
-            bands.sort_by_key(|(b, _)| std::cmp::Reverse(wt.get(*b).copied().unwrap_or(0)));
-        }
-        let bands: Vec<_> = bands.into_iter().map(|b| Mutex::new(Some(b))).collect();
-        let handed = AtomicUsize::new(0);
-        let next_band = || {
-            let k = handed.fetch_add(1, Ordering::Relaxed);
-            bands.get(k).and_then(|m| m.lock().ok()?.take())
-        };
         let cast_band = |(b, band): (usize, &mut [[f64; 4]])| {
             let mut rs = RayStats::default();
             let rows = band.len() / w;
@@ -377,15 +360,14 @@ impl Prepared {
             }
             rs
         };
-        let add = |mut a: RayStats, b: RayStats| {
-            a += b;
-            a
-        };
-        // A worker per thread, each casting the bands it is handed until none is left.
-        let mut stats = (0..rayon::current_num_threads())
-            .into_par_iter()
-            .map(|_| std::iter::from_fn(&next_band).map(&cast_band).fold(RayStats::default(), add))
-            .reduce(RayStats::default, add);
+        // The bands heaviest first by the entry grid's guess (in image order without a grid).
+        let bands: Vec<(usize, &mut [[f64; 4]])> = px.chunks_mut(w * TILE).enumerate().collect();
+        let weights = grid.as_ref().map(|g| g.band_weights(TILE)).unwrap_or_default();
+        let weight = |b: usize, _: &_| weights.get(b).copied().unwrap_or(0);
+        let mut stats = RayStats::default();
+        for s in heaviest_first(bands, weight, cast_band) {
+            stats += s;
+        }
         stats.scratch_bytes = scratch as u64;
         stats
     }

@@ -274,6 +274,7 @@ impl Prepared {
         (grid, shared): (Option<&EntryGrid>, Option<&SharedFrame>),
         (i, j): (usize, usize),
         seed: &mut u32,
+        run: &mut Run<S::End>,
     ) -> (Segment, RayStats) {
         let fr = Frame2::new(ctx, self.max_abs, shared);
         let mut acc = Segment::default();
@@ -291,7 +292,9 @@ impl Prepared {
         };
         let mut found = entry(t_min, exclude, *seed);
         // Crossings wait in `run` and are interpolated, shaded and composited a queue at a time.
-        let mut run = Run::<S::End>::default();
+        // (Its rows are not cleared between rays: every entry starts with an empty queue, and
+        // the lanes past it are computed and ignored.)
+        run.q.n = 0;
         'rays: while let Some((bt, bf, t_in, s_in, leaf)) = found.take() {
             if first {
                 *seed = leaf;
@@ -326,7 +329,7 @@ impl Prepared {
                 stats.steps += 1;
                 if stats.steps as usize > self.max_steps {
                     // A ray that turns opaque on its queued segments stops before the limit.
-                    if !drain(shade, &mut run, self.inv_l, &mut acc, &mut stats, &fr, ctx) {
+                    if !drain(shade, run, self.inv_l, &mut acc, &mut stats, &fr, ctx) {
                         stats.lost += 1;
                     }
                     break 'rays;
@@ -372,14 +375,14 @@ impl Prepared {
                     ctx.fallbacks.get(),
                 ];
                 run.q.n += 1;
-                if run.q.n == QUEUE && drain(shade, &mut run, self.inv_l, &mut acc, &mut stats, &fr, ctx) {
+                if run.q.n == QUEUE && drain(shade, run, self.inv_l, &mut acc, &mut stats, &fr, ctx) {
                     break 'rays;
                 }
                 let iz = ids[k];
                 let fz = local_index(&g, iz);
                 let nb = if fz < 4 { self.next[tet][fz] } else { BOUNDARY };
                 if nb == BOUNDARY {
-                    if drain(shade, &mut run, self.inv_l, &mut acc, &mut stats, &fr, ctx) {
+                    if drain(shade, run, self.inv_l, &mut acc, &mut stats, &fr, ctx) {
                         break 'rays;
                     }
                     t_min = run.t;
@@ -414,7 +417,7 @@ impl Prepared {
 /// step that queued segment `k`), the counters as they were when it was queued, the depth of
 /// the queue's first crossing (`q.ends[0]`) and the TF piece of the last crossing evaluated.
 #[derive(Clone, Copy)]
-struct Run<E> {
+pub(super) struct Run<E> {
     q: Queue<E>,
     wt: [[f64; QUEUE]; 3],
     z: [[f64; QUEUE]; 3],

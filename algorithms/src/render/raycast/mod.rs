@@ -35,7 +35,7 @@ use crate::optics::INTEGRATORS;
 use crate::schedule::heaviest_first;
 use crate::tf::TransferFunction;
 use bvh::Bvh;
-use predicate::RayCtx;
+use predicate::{DirTerms, RayCtx};
 use projected::SharedFrame;
 use shade::{Shade, Shader};
 
@@ -325,6 +325,10 @@ impl Prepared {
             Projection::Ortho if projected => SharedFrame::new(&self.verts, camera.pixel_ray(0, 0).dir),
             _ => None,
         };
+        let dir = match camera.projection {
+            Projection::Ortho => Some(DirTerms::new(camera.pixel_ray(0, 0).dir, camera)),
+            Projection::Persp => None,
+        };
         let scratch = front.bytes()
             + grid.as_ref().map_or(0, |g| g.bytes())
             + shared.as_ref().map_or(0, |f| f.bytes());
@@ -340,7 +344,7 @@ impl Prepared {
                     let j = b * TILE + dj;
                     for i in i0..(i0 + TILE).min(w) {
                         let ray = camera.pixel_ray(i as u32, j as u32);
-                        let ctx = RayCtx::new(&ray, camera, self.max_abs);
+                        let ctx = RayCtx::new(&ray, camera, self.max_abs, dir.as_ref());
                         let (seg, s) = if projected {
                             let pre = (grid.as_ref(), shared.as_ref());
                             self.cast_projected(

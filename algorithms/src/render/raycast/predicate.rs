@@ -38,9 +38,38 @@ pub(super) fn coord(p: DVec3) -> robust::Coord3D<f64> {
     }
 }
 
+/// The terms of a ray that depend only on its direction, computed once for all the rays of a
+/// direction (an orthographic view's): the same expressions, so the same bits.
+pub(super) struct DirTerms {
+    d: DVec3,
+    d_r: DVec3,
+    d_u: DVec3,
+    inv_d: DVec3,
+}
+
+impl DirTerms {
+    pub(super) fn new(d: DVec3, cam: &Camera) -> DirTerms {
+        DirTerms {
+            d,
+            d_r: d.cross(cam.right),
+            d_u: d.cross(cam.up),
+            inv_d: DVec3::ONE / d,
+        }
+    }
+}
+
 impl RayCtx {
-    /// `max_abs` bounds every vertex coordinate the ray is tested against.
-    pub(super) fn new(ray: &Ray, cam: &Camera, max_abs: f64) -> RayCtx {
+    /// `max_abs` bounds every vertex coordinate the ray is tested against. `dir` holds the
+    /// terms of the ray's direction (those of another ray are ignored).
+    pub(super) fn new(ray: &Ray, cam: &Camera, max_abs: f64, dir: Option<&DirTerms>) -> RayCtx {
+        let own;
+        let dir = match dir {
+            Some(t) if t.d == ray.dir => t,
+            _ => {
+                own = DirTerms::new(ray.dir, cam);
+                &own
+            }
+        };
         let (o, q) = (ray.origin, ray.origin + ray.dir);
         let c = q - o;
         // |u − o|, |v − o| ≤ a and |q − o| ≤ cm per coordinate, so orient3d's permanent is at
@@ -53,9 +82,9 @@ impl RayCtx {
             o,
             d: ray.dir,
             q,
-            d_r: ray.dir.cross(cam.right),
-            d_u: ray.dir.cross(cam.up),
-            inv_d: DVec3::ONE / ray.dir,
+            d_r: dir.d_r,
+            d_u: dir.d_u,
+            inv_d: dir.inv_d,
             c,
             bound: O3D_ERRBOUND_A * 6.0 * a * a * cm * (1.0 + 1e-12),
             fallbacks: Cell::new(0),

@@ -101,6 +101,8 @@ pub(super) struct SharedFrame {
     d: DVec3,
     f1: DVec3,
     f2: DVec3,
+    /// `fl(f1 × f2)`, which every ray's error bound measures against its own direction.
+    n: DVec3,
     verts: Vec<Local>,
 }
 
@@ -121,7 +123,13 @@ impl SharedFrame {
                 s: v.s,
             })
             .collect();
-        Some(SharedFrame { d, f1, f2, verts })
+        Some(SharedFrame {
+            d,
+            f1,
+            f2,
+            n: f1.cross(f2),
+            verts,
+        })
     }
 
     /// Bytes the frame's vertex table holds.
@@ -157,9 +165,12 @@ impl<'a> Frame2<'a> {
         let len = c.length();
         let ch = if len > 0.0 { c / len } else { DVec3::Z };
         let shared = shared.filter(|sf| sf.d == ray.d);
-        let (f1, f2) = match shared {
-            Some(sf) => (sf.f1, sf.f2),
-            None => axes(ch),
+        let (f1, f2, n) = match shared {
+            Some(sf) => (sf.f1, sf.f2, sf.n),
+            None => {
+                let (f1, f2) = axes(ch);
+                (f1, f2, f1.cross(f2))
+            }
         };
         let shared = shared.map(|sf| {
             let o = ray.o;
@@ -171,7 +182,7 @@ impl<'a> Frame2<'a> {
             };
             (sf, at)
         });
-        let eta = (f1.cross(f2) - ch).length() * 1.01 + 16.0 * U;
+        let eta = (n - ch).length() * 1.01 + 16.0 * U;
         let a = max_abs + ray.o.abs().max_element();
         let bound = 2.0 * a * a * (60.0 * U + 3.0 * eta);
         Frame2 {

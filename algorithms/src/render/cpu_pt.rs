@@ -54,7 +54,6 @@ use crate::mesh::Mesh;
 use crate::optics::{integrator, Integrator, INTEGRATORS};
 use crate::optics_f32::FastIntegrator;
 use crate::pt::TABLE;
-use crate::schedule::heaviest_first;
 use crate::sort::{Sort, SortStats};
 use crate::tf::TransferFunction;
 
@@ -287,14 +286,10 @@ impl Renderer for CpuPt {
         };
         let pairs = bins.items.len();
         let tiles: Vec<(Vec<[f32; 4]>, u64)> = match (fast, &st.shading) {
-            (Some(integ), _) => heaviest_first(
-                (0..ntiles).collect(),
-                |k, _| bins.tile(k).len() as u64,
-                |k| {
-                    let t = (k as u32 % ntx, k as u32 / ntx);
-                    fast::draw_tile(&sc.fast, bins.tile(k), integ, t, (w, h))
-                },
-            ),
+            (Some(integ), _) => bins.per_tile(ntiles, |k| {
+                let t = (k as u32 % ntx, k as u32 / ntx);
+                fast::draw_tile(&sc.fast, bins.tile(k), integ, t, (w, h))
+            }),
             (None, Shading::F32(integ)) => draw_tiles(
                 DrawCtx {
                     tets: mesh.tets(),

@@ -4,6 +4,7 @@
 use rayon::prelude::*;
 
 use super::project::TileRect;
+use crate::schedule::heaviest_first;
 
 /// The tets of every tile in visibility order, in one array (a counting sort of the
 /// (tet, tile) pairs by tile, stable in the order): tile k's tets are
@@ -24,6 +25,12 @@ impl Bins {
 
     pub(super) fn tile(&self, k: usize) -> &[u32] {
         &self.items[self.start[k] as usize..self.start[k + 1] as usize]
+    }
+
+    /// `f` of each of the first `ntiles` tiles in parallel, the results in tile order: the
+    /// tiles are handed to the threads one at a time, those with the most tets first.
+    pub(super) fn per_tile<T: Send>(&self, ntiles: usize, f: impl Fn(usize) -> T + Sync) -> Vec<T> {
+        heaviest_first((0..ntiles).collect(), |k, _| self.tile(k).len() as u64, f)
     }
 
     /// Bins `order` by the tile ranges `rects` (per tet) of a `ntx`-wide grid of `ntiles`:

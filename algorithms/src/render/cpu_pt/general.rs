@@ -9,7 +9,6 @@ use super::TILE;
 use crate::camera::Camera;
 use crate::optics::Integrator;
 use crate::optics_f32::FastIntegrator;
-use crate::schedule::heaviest_first;
 use crate::pt::{fan_segment, raster_fan, FaceVertex, FanGeometry};
 
 /// Per-fragment integration: premultiplied `[r, g, b, α]` of a segment.
@@ -44,14 +43,10 @@ pub(super) fn draw_tiles<S: Shade>(
     ntx: u32,
     ntiles: usize,
 ) -> Vec<(Vec<[f32; 4]>, u64)> {
-    heaviest_first(
-        (0..ntiles).collect(),
-        |k, _| bins.tile(k).len() as u64,
-        |k: usize| {
-            let (tx, ty) = (k as u32 % ntx, k as u32 / ntx);
-            ctx.draw_tile(tx, ty, bins.tile(k))
-        },
-    )
+    bins.per_tile(ntiles, |k| {
+        let (tx, ty) = (k as u32 % ntx, k as u32 / ntx);
+        ctx.draw_tile(tx, ty, bins.tile(k))
+    })
 }
 
 pub(super) struct DrawCtx<'a, S> {

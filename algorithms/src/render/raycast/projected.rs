@@ -483,7 +483,10 @@ fn drain<S: Shade>(
         let w = [run.wt[0][k], run.wt[1][k], run.wt[2][k]];
         let sum = w[0] + w[1] + w[2];
         let r = 1.0 / sum;
-        let wn = if (sum > 0.0) & sum.is_finite() {
+        // `sum > 0` and finite, tested as `r > 0` (1/sum is 0 only for sum = +∞, and NaN for
+        // NaN): two vector comparisons, where LLVM made `is_finite` (and `sum < ∞`) a dozen
+        // scalar bit-test instructions a lane.
+        let wn = if (sum > 0.0) & (r > 0.0) {
             w.map(|v| v * r)
         } else {
             [1.0 / 3.0; 3]

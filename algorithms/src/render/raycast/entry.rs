@@ -218,7 +218,8 @@ impl EntryGrid {
         let mut best: Option<(u32, usize, f64, f64, u32)> = None;
         let mut best_t = f64::INFINITY;
         for it in &self.items[self.start[c] as usize..self.start[c + 1] as usize] {
-            if px < it.x0 || px > it.x1 || py < it.y0 || py > it.y1 || (it.t_max as f64) < t_min {
+            // (`|`, not `||`: one branch a face, not five hard-to-predict ones.)
+            if (px < it.x0) | (px > it.x1) | (py < it.y0) | (py > it.y1) | ((it.t_max as f64) < t_min) {
                 continue;
             }
             let bf = bvh.faces[it.leaf as usize];

@@ -201,7 +201,8 @@ impl LinearTf {
         let last = n - 1;
         if let Some(pc) = self.pieces.get(*hint as usize) {
             // s > s₀ and s < s_last as below: the hint's piece is not the last one.
-            if *hint as usize != last && pc.s <= s && s < pc.s_next && s > self.s0 {
+            // (`&`, not `&&`: one branch, not four.)
+            if (*hint as usize != last) & (pc.s <= s) & (s < pc.s_next) & (s > self.s0) {
                 return Self::lerp(pc, s);
             }
         }

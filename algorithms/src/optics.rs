@@ -507,52 +507,6 @@ impl PsiTable {
         v0 + (v1 - v0) * tj
     }
 
-    /// [`PsiTable::lookup_gamma`] over `N` lanes, with the same operations lane by lane (so the
-    /// same bits: `⌊x⌋` where it truncates, equal for `x ≥ 0`), arranged so that the
-    /// coordinates and the blend vectorise; the four loads of each lane are a scalar pass of
-    /// their own (gathers were slower than scalar loads on the CPUs measured).
-    #[inline(always)]
-    pub fn lookup_gamma_lanes<const N: usize>(&self, gf: &[f64; N], gb: &[f64; N]) -> [f64; N] {
-        let n = self.n;
-        let (m, top) = ((n - 1) as f64, (n - 2) as f64);
-        let coord = |g: f64| -> (f64, f64) {
-            let x = if g.is_nan() {
-                0.0
-            } else {
-                g.clamp(0.0, 1.0) * m
-            };
-            let i = x.floor().min(top);
-            (i, x - i)
-        };
-        let (mut fi, mut ti, mut fj, mut tj) = ([0.0; N], [0.0; N], [0.0; N], [0.0; N]);
-        for k in 0..N {
-            (fi[k], ti[k]) = coord(gf[k]);
-            (fj[k], tj[k]) = coord(gb[k]);
-        }
-        // The cells' first indices `j·n + i`, lane-wise: `i`, `j` are integers in `[0, n − 2]`,
-        // so `i + 2⁵²` holds `i` in its low mantissa bits, exactly (one add and one integer
-        // subtraction a lane; `as usize`'s saturating conversion has no AVX2 form and was a
-        // sixth of this function).
-        const TWO52: f64 = 4_503_599_627_370_496.0;
-        let int = |x: f64| ((x + TWO52).to_bits() - TWO52.to_bits()) as usize;
-        let base: [usize; N] = std::array::from_fn(|k| int(fj[k]) * n + int(fi[k]));
-        let d = &self.data;
-        let mut v = [[0.0f64; N]; 4];
-        for k in 0..N {
-            // One bounds check: the cell's four values lie in `d[b .. b + n + 2]`.
-            let c = &d[base[k]..base[k] + n + 2];
-            v[0][k] = c[0] as f64;
-            v[1][k] = c[1] as f64;
-            v[2][k] = c[n] as f64;
-            v[3][k] = c[n + 1] as f64;
-        }
-        std::array::from_fn(|k| {
-            let v0 = v[0][k] + (v[1][k] - v[0][k]) * ti[k];
-            let v1 = v[2][k] + (v[3][k] - v[2][k]) * ti[k];
-            v0 + (v1 - v0) * tj[k]
-        })
-    }
-
     /// Ψ for the end optical depths `τ_f·l`, `τ_b·l` (≥ 0).
     #[inline]
     pub fn lookup(&self, tau_f_l: f64, tau_b_l: f64) -> f64 {

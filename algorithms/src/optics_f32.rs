@@ -22,6 +22,7 @@ use crate::tf::TransferFunction;
 
 mod colour;
 mod tf_lines;
+pub(crate) use colour::colour_lanes_n;
 pub use colour::{segment_from_colours, shade_colours, ColourBatch};
 use tf_lines::pieces;
 pub use tf_lines::TfLine;
@@ -107,7 +108,7 @@ impl TfTable {
 }
 
 /// The largest extinction the f32 table holds.
-const TAU_MAX: f64 = 1e30;
+pub(crate) const TAU_MAX: f64 = 1e30;
 
 /// `exp(−x)` for `x ≥ 0` (a NaN gives a finite value in [0, 1]; +∞ gives ≈ 1e-38): relative
 /// error ≤ 2e-6 for x ≤ 20 (the rounding of x·log2 e), absolute ≤ 2e-7; exactly 1 at 0.
@@ -116,7 +117,8 @@ pub fn exp_neg(x: f32) -> f32 {
     // 2^y, y = −x·log2(e) ∈ [−126, 0], split y = n + f, f ∈ [−0.5, 0.5].
     let y = (-x * std::f32::consts::LOG2_E).max(-126.0);
     // Round to nearest by the 1.5·2^23 trick (f32::round is a libm call on baseline x86-64).
-    let n = (y + 12_582_912.0) - 12_582_912.0;
+    let t = y + 12_582_912.0;
+    let n = t - 12_582_912.0;
     let f = y - n;
     // Cephes exp2f polynomial: 2^f ≈ 1 + f·P(f).
     let p = ((((1.535_336_2e-4 * f + 1.339_887_4e-3) * f + 9.618_437e-3) * f + 5.550_332_5e-2) * f
@@ -124,9 +126,13 @@ pub fn exp_neg(x: f32) -> f32 {
         * f
         + 6.931_472e-1;
     let m = 1.0 + f * p;
-    // Wrapping: a negative x (never passed by `segment`, but computed in the batch kernels'
-    // ignored lanes) must not trap in debug builds.
-    let e = ((n as i32).wrapping_add(127) as u32) << 23;
+    // `n as i32` from the bits of `t = 1.5·2²³ + n` (for |n| < 2²², n + 2²² is its mantissa):
+    // one integer subtraction, where the saturating `as i32` had no vector form and left a
+    // dozen scalar instructions a lane in the batch kernels. Wrapping: a negative x (never
+    // passed by `segment`, but computed in the batch kernels' ignored lanes) must not trap in
+    // debug builds.
+    let ni = (t.to_bits() as i32).wrapping_sub(0x4B40_0000);
+    let e = (ni.wrapping_add(127) as u32) << 23;
     m * f32::from_bits(e)
 }
 
@@ -350,9 +356,16 @@ fn partial_lanes(tf: &TfTable, psi: &PsiTable, b: &mut ShadeBatch) {
 fn psi_at(t: &PsiTable, ga: f32, gb: f32) -> f32 {
     let n = t.size();
     let last = (n - 2) as i32;
+    // `(g as i32).clamp(0, last)` as floats, the same value for every g (NaN included: 0),
+    // and its bits as an integer by the 2²³ trick (0 ≤ i < 2²³): the saturating `as i32` and
+    // the integer clamp had no vector form and were a quarter of the colour kernel.
+    let top = last as f32;
     let coord = |g: f32| {
-        let i = (g as i32).clamp(0, last);
-        (i as usize, g - i as f32)
+        let x = g.floor();
+        let x = if x > 0.0 { x } else { 0.0 };
+        let x = if x < top { x } else { top };
+        let i = ((x + 8_388_608.0).to_bits() - 8_388_608f32.to_bits()) as usize;
+        (i, g - x)
     };
     let (i, ti) = coord(ga);
     let (j, tj) = coord(gb);

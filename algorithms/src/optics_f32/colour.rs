@@ -72,19 +72,34 @@ impl pulp::WithSimd for Lanes<'_> {
     }
 }
 
-/// In three passes: the arithmetic before the Ψ look-up, the look-ups, the blend (as the
-/// lane-wise `partial` kernel, whose first pass, the TF look-ups, is gone).
+/// [`colour_lanes_n`] over a whole batch.
 #[inline(always)]
 pub(super) fn colour_lanes(psi: &PsiTable, b: &mut ColourBatch) {
+    let ColourBatch { cf, cb, l, out, .. } = b;
+    colour_lanes_n(psi, cf, cb, l, out);
+}
+
+/// [`segment_from_colours`] over `N` lanes (structure of arrays: `cf[c][k]` is channel `c` of
+/// lane `k`'s front colour), in three passes: the arithmetic before the Ψ look-up, the
+/// look-ups, the blend (as the lane-wise `partial` kernel, whose first pass, the TF look-ups,
+/// is gone). `cpu-pt` calls it on batches of [`BATCH`] fragments, the ray caster on its queue
+/// of a ray's segments.
+#[inline(always)]
+pub(crate) fn colour_lanes_n<const N: usize>(
+    psi: &PsiTable,
+    cf: &[[f32; N]; 4],
+    cb: &[[f32; N]; 4],
+    l: &[f32; N],
+    out: &mut [[f32; N]; 4],
+) {
     // What the unchecked loads of `psi_at` rely on.
     assert!(psi.size() >= 2 && psi.data().len() >= psi.size().pow(2));
-    let ColourBatch { cf, cb, l, out, .. } = b;
     let m = (psi.size() - 1) as f32;
-    let mut ok = [false; BATCH];
-    let mut zeta = [0.0f32; BATCH];
-    let (mut ga, mut gb) = ([0.0f32; BATCH], [0.0f32; BATCH]);
+    let mut ok = [false; N];
+    let mut zeta = [0.0f32; N];
+    let (mut ga, mut gb) = ([0.0f32; N], [0.0f32; N]);
     // 1. Validity, exp and the Ψ table coordinates γ·(n − 1) (as `psi_lookup`).
-    for k in 0..BATCH {
+    for k in 0..N {
         let valid = l[k] > 0.0 && finite(cf[3][k]) && finite(cb[3][k]);
         // Invalid lanes compute on zeros (their output is 0 anyway), so no index runs wild.
         let (tf, tb, lk) = if valid {
@@ -99,13 +114,13 @@ pub(super) fn colour_lanes(psi: &PsiTable, b: &mut ColourBatch) {
         ok[k] = valid;
     }
     // 2. Ψ (look-ups).
-    let mut ps = [0.0f32; BATCH];
-    for k in 0..BATCH {
+    let mut ps = [0.0f32; N];
+    for k in 0..N {
         ps[k] = psi_at(psi, ga[k], gb[k]);
     }
     // 3. The blend.
     let [or, og, ob, oa] = out;
-    for k in 0..BATCH {
+    for k in 0..N {
         let alpha = 1.0 - zeta[k];
         let pmz = (ps[k] - zeta[k]).max(0.0).min(alpha);
         let z = |v: f32| if ok[k] { v } else { 0.0 };

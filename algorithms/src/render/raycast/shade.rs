@@ -1,13 +1,15 @@
 //! What the walk integrates with. Every crossing is the back of one segment and the front of
 //! the next, so the transfer function is evaluated once per crossing ([`Shade::end`]) instead
-//! of twice per segment; `partial` and `exact` take those values through their
-//! `segment_eval` (the same arithmetic as `Integrator::segment`, so the same bits), and the
-//! walk is compiled once per integrator kind instead of calling it through a `dyn` pointer.
-//! `partial` takes two shortcuts that change only last bits ([`RcPartial`]): the transfer
-//! function's pieces are found from a bucket table and evaluated with precomputed slopes, and a
-//! segment calls `expm1` once.
+//! of twice per segment, and the walk is compiled once per integrator kind instead of calling
+//! it through a `dyn` pointer. `exact` takes those values through its `segment_eval` (the
+//! same arithmetic as `Integrator::segment`, so the same bits). `partial` ([`RcPartial`])
+//! finds the transfer function's pieces from a bucket table and evaluates them with
+//! precomputed slopes (f64, last bits only against `TransferFunction::eval`), and computes
+//! the segment's optics in f32 with `cpu-pt`'s colour kernel, a queue of segments a call: its
+//! rounding (~1e-7) is far below `partial`'s own error against `exact` (~1e-4 RMSE).
 
-use crate::optics::{gamma_of_depth, Exact, Integrator, Partial, Segment};
+use crate::optics::{Exact, Integrator, Partial, Segment};
+use crate::optics_f32::{colour_lanes_n, segment_from_colours, TAU_MAX};
 use crate::tf::TransferFunction;
 
 /// A per-segment integrator as the walk calls it.
@@ -111,8 +113,8 @@ pub(super) struct Eval {
     tau: f64,
 }
 
-/// `partial` as the ray caster runs it: [`Partial`]'s Ψ table, with the transfer function
-/// as a [`LinearTf`].
+/// `partial` as the ray caster runs it: the transfer function as a [`LinearTf`] (f64), the
+/// segments from [`Partial`]'s Ψ table by `cpu-pt`'s f32 colour kernel.
 pub(super) struct RcPartial {
     p: Partial,
     tf: LinearTf,
@@ -242,51 +244,58 @@ impl LinearTf {
 }
 
 impl Shade for RcPartial {
-    type End = Eval;
+    /// `[r, g, b, τ]` in f32, τ NaN where the scalar is not finite (the segment is then
+    /// nothing, as by `Integrator::segment`'s input check).
+    type End = [f32; 4];
     /// [`RcPartial::segment`] lane-wise, compiled for the best instruction set of the CPU
     /// (x86-64-v3 where present, by `pulp`'s dispatch).
     #[inline(always)]
-    fn segments(&self, q: &Queue<Eval>) -> Lanes {
+    fn segments(&self, q: &Queue<[f32; 4]>) -> Lanes {
         self.arch.dispatch(PartialLanes { rc: self, q })
     }
     #[inline(always)]
-    fn end(&self, s: f64) -> Eval {
-        let (c, tau) = self.tf.eval(s);
-        Eval { s, c, tau }
+    fn end(&self, s: f64) -> [f32; 4] {
+        colour(s, self.tf.eval(s))
     }
     #[inline(always)]
-    fn end_next(&self, s: f64, hint: &mut u32) -> Eval {
-        let (c, tau) = self.tf.eval_from(s, hint);
-        Eval { s, c, tau }
+    fn end_next(&self, s: f64, hint: &mut u32) -> [f32; 4] {
+        colour(s, self.tf.eval_from(s, hint))
     }
+    /// `partial`'s f32 segment from the colours at its ends, as `cpu-pt` computes it
+    /// ([`segment_from_colours`]): the ray caster's geometry (the walk, the crossings' depths
+    /// and scalars, the TF) stays f64, and only the segment's optics are f32, whose rounding
+    /// (~1e-7 relative, the f32 exponential's 2e-6 at most) is far inside `partial`'s own error
+    /// against `exact` (RMSE ~1e-4 on the NASA grids).
     #[inline(always)]
-    fn segment(&self, f: &Eval, b: &Eval, l: f64) -> Segment {
-        // `Integrator::segment`'s input check (l > 0 is the caller's).
-        if !(f.s.is_finite() && b.s.is_finite()) {
-            return Segment::default();
+    fn segment(&self, f: &[f32; 4], b: &[f32; 4], l: f64) -> Segment {
+        let o = segment_from_colours(self.p.table(), *f, *b, l as f32);
+        Segment {
+            rgb: [o[0] as f64, o[1] as f64, o[2] as f64],
+            alpha: o[3] as f64,
         }
-        // `Partial::segment_eval` with one libm call instead of two: α = 1 − ζ, ζ = exp(−g) (g
-        // the segment's optical depth), rather than −expm1(−g). The two differ by the rounding
-        // of 1 − ζ, ≤ 1.2e-16 absolute (relative only for thin segments, where α ≈ g ≪ 1 and
-        // the pixel's error is that absolute one), far inside `partial`'s own error; glibc's
-        // `expm1` has a division on its critical path and was a fifth of the frame's time, and
-        // its `exp` a call and an errno wrapper: ζ comes from the inline [`exp_neg`].
-        let (fa, fb) = (f.tau * l, b.tau * l);
-        let zeta = exp_neg(0.5 * (fa + fb));
-        let alpha = 1.0 - zeta;
-        let pmz = clamp(self.p.table().lookup(fa, fb) - zeta, 0.0, alpha);
-        Segment::from_partial(f.c, b.c, alpha, pmz)
     }
 }
 
-/// [`RcPartial::segment`] over a queue as a `pulp` operation. Its passes repeat `segment`'s
-/// operations one for one (Rust contracts nothing into an FMA), so each lane has `segment`'s
-/// bits: the validity test becomes a select (invalid lanes compute on zeros and give zeros),
-/// and the table look-ups, which vectorise into slow gathers, have a scalar pass of their own.
-/// Lanes past `q.n` are computed and ignored.
+/// A crossing's TF values as [`RcPartial`] queues them: f32, τ clamped to the f32 tables'
+/// largest ([`TAU_MAX`]), NaN for a scalar that is not finite.
+#[inline(always)]
+fn colour(s: f64, (c, tau): ([f64; 3], f64)) -> [f32; 4] {
+    // (τ is finite where s is: a select, not `min`'s NaN handling.)
+    let tau = if s.is_finite() {
+        (if tau < TAU_MAX { tau } else { TAU_MAX }) as f32
+    } else {
+        f32::NAN
+    };
+    [c[0] as f32, c[1] as f32, c[2] as f32, tau]
+}
+
+/// [`RcPartial::segment`] over a queue as a `pulp` operation: the queue's crossings
+/// transposed into lanes (segment `k`'s front is crossing `k`, its back crossing `k + 1`) and
+/// `cpu-pt`'s lane-wise colour kernel ([`colour_lanes_n`], `segment_from_colours`'s operations
+/// lane by lane, so its bits). Lanes past `q.n` are computed and ignored.
 struct PartialLanes<'a> {
     rc: &'a RcPartial,
-    q: &'a Queue<Eval>,
+    q: &'a Queue<[f32; 4]>,
 }
 
 impl pulp::WithSimd for PartialLanes<'_> {
@@ -294,53 +303,16 @@ impl pulp::WithSimd for PartialLanes<'_> {
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, _simd: S) -> Lanes {
         let q = self.q;
-        // 0. The queue's crossings, transposed into lanes (so that the passes vectorise):
-        //    segment k's front is crossing k, its back crossing k + 1.
-        let mut s = [0.0; QUEUE + 1];
-        let mut t = [0.0; QUEUE + 1];
-        let mut c = [[0.0; QUEUE + 1]; 3];
-        for (k, e) in q.ends.iter().enumerate() {
-            (s[k], t[k]) = (e.s, e.tau);
-            for (ch, v) in c.iter_mut().zip(e.c) {
-                ch[k] = v;
-            }
+        let cf: [[f32; QUEUE]; 4] = std::array::from_fn(|c| std::array::from_fn(|k| q.ends[k][c]));
+        let cb: [[f32; QUEUE]; 4] =
+            std::array::from_fn(|c| std::array::from_fn(|k| q.ends[k + 1][c]));
+        let l = q.l.map(|l| l as f32);
+        let mut o = [[0.0f32; QUEUE]; 4];
+        colour_lanes_n(self.rc.p.table(), &cf, &cb, &l, &mut o);
+        Lanes {
+            rgb: std::array::from_fn(|c| o[c].map(f64::from)),
+            alpha: o[3].map(f64::from),
         }
-        let front = |a: &[f64; QUEUE + 1]| -> [f64; QUEUE] { std::array::from_fn(|k| a[k]) };
-        let back = |a: &[f64; QUEUE + 1]| -> [f64; QUEUE] { std::array::from_fn(|k| a[k + 1]) };
-        let (sf, sb, tf, tb) = (front(&s), back(&s), front(&t), back(&t));
-        let cf = c.each_ref().map(front);
-        let cb = c.each_ref().map(back);
-        // 1. The optical depths of the ends, ζ, α and the Ψ table's coordinates.
-        let mut ok = [0.0; QUEUE];
-        let (mut zeta, mut alpha) = ([0.0; QUEUE], [0.0; QUEUE]);
-        let (mut gf, mut gb) = ([0.0; QUEUE], [0.0; QUEUE]);
-        for k in 0..QUEUE {
-            let valid = sf[k].abs() < f64::INFINITY && sb[k].abs() < f64::INFINITY;
-            ok[k] = if valid { 1.0 } else { 0.0 };
-            let l = if valid { q.l[k] } else { 0.0 };
-            let (fa, fb) = (tf[k] * l, tb[k] * l);
-            zeta[k] = exp_neg(0.5 * (fa + fb));
-            alpha[k] = 1.0 - zeta[k];
-            gf[k] = gamma_of_depth(fa);
-            gb[k] = gamma_of_depth(fb);
-        }
-        // 2. The look-ups.
-        let table = self.rc.p.table();
-        let psi = table.lookup_gamma_lanes(&gf, &gb);
-        // 3. Ψ − ζ and the segment.
-        let mut out = Lanes::default();
-        for k in 0..QUEUE {
-            let valid = ok[k] != 0.0;
-            let pmz = clamp(psi[k] - zeta[k], 0.0, alpha[k]);
-            // `Segment::from_partial`'s expression, spelled per lane: called per lane, it left
-            // a third more of this pass scalar.
-            for c in 0..3 {
-                let v = cf[c][k] * alpha[k] + (cb[c][k] - cf[c][k]) * pmz;
-                out.rgb[c][k] = if valid { v } else { 0.0 };
-            }
-            out.alpha[k] = if valid { alpha[k] } else { 0.0 };
-        }
-        out
     }
 }
 
@@ -369,88 +341,6 @@ impl Shade for Box<dyn Integrator> {
     }
 }
 
-/// `x.clamp(lo, hi)` (the same value for every `x`, NaN included) without its check of
-/// `lo ≤ hi`, whose panic path keeps the lanes from vectorising.
-#[inline(always)]
-fn clamp(x: f64, lo: f64, hi: f64) -> f64 {
-    let x = if x < lo { lo } else { x };
-    if x > hi {
-        hi
-    } else {
-        x
-    }
-}
-
-/// `exp(−g)` for `g ≥ 0` (NaN gives NaN), within 3 ulp of libm's: `g = k·ln 2 + r` with
-/// `|r| ≤ ln 2 / 2` (ln 2 split in a high part with 32 significant bits, exact times `k`, and a
-/// low part), `e^{−r}` by its Taylor polynomial of degree 13 (the remainder `r¹⁴/14!` is below
-/// 2e-19) in Estrin's scheme, and `2^{−k}` assembled in the exponent bits. Inline and without
-/// a call, a division or a branch (the out-of-range inputs are selects), for the ray caster's one
-/// exponential a segment; [`PartialLanes`] vectorises it.
-#[inline(always)]
-pub(super) fn exp_neg(g: f64) -> f64 {
-    const LN2_HI: f64 = 0.693_147_180_369_123_8; // 0x3FE62E42FEE00000
-    const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
-    const INV_LN2: f64 = std::f64::consts::LOG2_E;
-    /// 2⁵²: `t + 2⁵² − 2⁵²` rounds `0 ≤ t < 2⁵¹` to an integer, exactly.
-    const TWO52: f64 = 4_503_599_627_370_496.0;
-    // exp(−708) ≈ 3e-308; beyond it, and for +∞, the result is 0 to the pixel (NaN stays): those
-    // lanes compute on 0 and are replaced at the end.
-    // (Each test a select of its own: `||`, nested `else if` or `max` keep LLVM from
-    // vectorising the function.)
-    let (nan, big) = (g.is_nan(), g >= 708.0);
-    let g0 = if (g < 708.0) & (g > 0.0) { g } else { 0.0 };
-    // k = ⌊g/ln 2 + 1/2⌋ (round to nearest, g ≥ 0): the integer nearest `t`, less one where that
-    // is above `t` (what `t as i64` gives, without a conversion AVX2 lacks).
-    let t = g0 * INV_LN2 + 0.5;
-    let near = (t + TWO52) - TWO52;
-    let kf = if near > t { near - 1.0 } else { near };
-    // −r = −(g − k·ln 2), so e^{−g} = 2^{−k}·e^{x}, x = k·ln 2 − g ∈ [−0.35, 0.35].
-    let x = (kf * LN2_HI - g0) + kf * LN2_LO;
-    // Taylor coefficients 1/n!, n = 0..13, in Estrin's scheme.
-    const C: [f64; 14] = [
-        1.0,
-        1.0,
-        1.0 / 2.0,
-        1.0 / 6.0,
-        1.0 / 24.0,
-        1.0 / 120.0,
-        1.0 / 720.0,
-        1.0 / 5040.0,
-        1.0 / 40320.0,
-        1.0 / 362_880.0,
-        1.0 / 3_628_800.0,
-        1.0 / 39_916_800.0,
-        1.0 / 479_001_600.0,
-        1.0 / 6_227_020_800.0,
-    ];
-    let x2 = x * x;
-    let x4 = x2 * x2;
-    let x8 = x4 * x4;
-    let p01 = C[0] + C[1] * x;
-    let p23 = C[2] + C[3] * x;
-    let p45 = C[4] + C[5] * x;
-    let p67 = C[6] + C[7] * x;
-    let p89 = C[8] + C[9] * x;
-    let p1011 = C[10] + C[11] * x;
-    let p1213 = C[12] + C[13] * x;
-    let q0 = p01 + p23 * x2;
-    let q1 = p45 + p67 * x2;
-    let q2 = p89 + p1011 * x2;
-    let lo = q0 + q1 * x4;
-    let hi = q2 + p1213 * x4;
-    let e = lo + hi * x8;
-    // 2^{−k}, k ∈ [0, 1022]: a normal number; k is the low bits of kf + 2⁵².
-    let k = (kf + TWO52).to_bits() - TWO52.to_bits();
-    let r = e * f64::from_bits((1023 - k) << 52);
-    let r = if big { 0.0 } else { r };
-    if nan {
-        g
-    } else {
-        r
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -473,7 +363,7 @@ mod tests {
         };
         let odd = [f64::NAN, f64::INFINITY, -f64::INFINITY, -0.5, 1.5, 0.0, 1.0];
         for round in 0..4000 {
-            let mut q = Queue::<Eval> {
+            let mut q = Queue::<[f32; 4]> {
                 n: 1 + round % QUEUE,
                 ..Default::default()
             };
@@ -527,30 +417,5 @@ mod tests {
                 }
             }
         }
-    }
-
-    #[test]
-    fn exp_neg_is_within_3_ulp_of_libm() {
-        let mut worst = 0.0f64;
-        let mut g = 0.0f64;
-        let mut check = |g: f64| {
-            let (a, b) = (exp_neg(g), (-g).exp());
-            let ulp = (b.to_bits() as i64 - a.to_bits() as i64).abs() as f64;
-            worst = worst.max(if b == 0.0 { a.abs() } else { ulp });
-        };
-        while g < 707.0 {
-            check(g);
-            check(g * 1.000_000_1 + 1e-300);
-            g = g * 1.001 + 1e-9;
-        }
-        for g in [0.0, 1e-300, 1e-17, 1e-9, 0.346, 0.347, 0.5, 1.0, 10.0, 700.0, 707.9] {
-            check(g);
-        }
-        assert!(worst <= 3.0, "{worst} ulp");
-        assert_eq!(exp_neg(-1.0), 1.0);
-        assert_eq!(exp_neg(0.0), 1.0);
-        assert_eq!(exp_neg(f64::INFINITY), 0.0);
-        assert_eq!(exp_neg(800.0), 0.0);
-        assert!(exp_neg(f64::NAN).is_nan());
     }
 }

@@ -333,8 +333,7 @@ impl Prepared {
             // (X, Y, D) of the step that entered it (the entry face's order at first).
             let mut rot = 0;
             // The crossing the next segment starts from (the queue is empty between entries).
-            run.hint = u32::MAX;
-            run.q.ends[0] = shade.end_next(s_in, &mut run.hint);
+            run.q.ends[0] = shade.end(s_in);
             run.t = t_in;
             loop {
                 stats.steps += 1;
@@ -426,7 +425,7 @@ impl Prepared {
 /// A ray's queued crossings, before and after they are interpolated: per queued step the three
 /// weights of the exit face's vertices and their depths and scalars (lane `k` of each row, the
 /// step that queued segment `k`), the counters as they were when it was queued, the depth of
-/// the queue's first crossing (`q.ends[0]`) and the TF piece of the last crossing evaluated.
+/// the queue's first crossing (`q.ends[0]`).
 #[derive(Clone, Copy)]
 pub(super) struct Run<E> {
     q: Queue<E>,
@@ -436,7 +435,6 @@ pub(super) struct Run<E> {
     /// Steps, walk fallbacks and the two predicates' filter fallbacks.
     marks: [[u64; 4]; QUEUE],
     t: f64,
-    hint: u32,
 }
 
 impl<E: Copy + Default> Default for Run<E> {
@@ -448,7 +446,6 @@ impl<E: Copy + Default> Default for Run<E> {
             s: [[0.0; QUEUE]; 3],
             marks: [[0; 4]; QUEUE],
             t: 0.0,
-            hint: u32::MAX,
         }
     }
 }
@@ -499,7 +496,7 @@ fn drain<S: Shade>(
         let t_out = tt[k].max(t_in);
         run.q.l[k] = (t_out - t_in) * inv_l;
         t_in = t_out;
-        run.q.ends[k + 1] = shade.end_next(sv[k], &mut run.hint);
+        run.q.ends[k + 1] = shade.end(sv[k]);
     }
     run.t = t_in;
     let out = shade.segments(&run.q);

@@ -17,14 +17,6 @@ pub(super) trait Shade: Sync {
     /// The transfer function's values at one crossing.
     type End: Copy + Default;
     fn end(&self, s: f64) -> Self::End;
-    /// [`Shade::end`] for the next crossing of a walk, with `hint` carried from its previous
-    /// one (`partial`: the piece of the TF it was in, which the next crossing is usually in
-    /// too). The same value as `end(s)`.
-    #[inline(always)]
-    fn end_next(&self, s: f64, hint: &mut u32) -> Self::End {
-        let _ = hint;
-        self.end(s)
-    }
     /// The segment between two crossings of optical length `l > 0`.
     fn segment(&self, front: &Self::End, back: &Self::End, l: f64) -> Segment;
     /// The first `q.n` queued segments, each what [`Shade::segment`] gives for it, bit for
@@ -226,6 +218,44 @@ impl LinearTf {
         Self::lerp(&self.pieces[k], s)
     }
 
+    /// [`colour`] of the TF at the first `n` of `s` (the lanes past them are anything), as
+    /// lanes: `out[c][k]` is channel `c` at `s[k]`. When all `n` lie inside the piece of the
+    /// first — along a ray, most queues — the piece is found once and the `lerp` is lane-wise,
+    /// else each is evaluated alone. The same bits either way: the piece holding `s` is one
+    /// ([`LinearTf::eval_from`]), and the lanes repeat `lerp`'s and `colour`'s operations.
+    #[inline(always)]
+    fn colours<const N: usize>(&self, s: &[f64; N], n: usize) -> [[f32; N]; 4] {
+        let last = self.pieces.len() - 1;
+        let mut h = u32::MAX;
+        let _ = self.eval_from(s[0], &mut h);
+        if let Some(pc) = self.pieces.get(h as usize) {
+            // (As `eval_from`'s hint test, lane by lane; `&`: one branch.)
+            let mut inside = h as usize != last;
+            for (k, &x) in s.iter().enumerate() {
+                inside &= ((pc.s <= x) & (x < pc.s_next) & (x > self.s0)) | (k >= n);
+            }
+            if inside {
+                let (v, m) = (&pc.val, &pc.slope);
+                let d: [f64; N] = s.map(|x| x - pc.s);
+                let mut out = [[0.0f32; N]; 4];
+                for c in 0..3 {
+                    out[c] = std::array::from_fn(|k| (v[c] + d[k] * m[c]) as f32);
+                }
+                // (Finite: every s is inside a piece of finite extent.)
+                out[3] = std::array::from_fn(|k| clamp_tau(v[3] + d[k] * m[3]));
+                return out;
+            }
+        }
+        let mut out = [[0.0f32; N]; 4];
+        for (k, &x) in s.iter().enumerate().take(n) {
+            let e = colour(x, self.eval_from(x, &mut h));
+            for c in 0..4 {
+                out[c][k] = e[c];
+            }
+        }
+        out
+    }
+
     /// Piece `pc` at `s`: its value at its start plus `(s − start)` times its slope.
     #[inline(always)]
     fn lerp(pc: &Piece, s: f64) -> ([f64; 3], f64) {
@@ -244,22 +274,18 @@ impl LinearTf {
 }
 
 impl Shade for RcPartial {
-    /// `[r, g, b, τ]` in f32, τ NaN where the scalar is not finite (the segment is then
-    /// nothing, as by `Integrator::segment`'s input check).
-    type End = [f32; 4];
+    /// The crossing's scalar: the transfer function is evaluated a queue at a time, lane-wise
+    /// ([`PartialLanes`]).
+    type End = f64;
     /// [`RcPartial::segment`] lane-wise, compiled for the best instruction set of the CPU
     /// (x86-64-v3 where present, by `pulp`'s dispatch).
     #[inline(always)]
-    fn segments(&self, q: &Queue<[f32; 4]>) -> Lanes {
+    fn segments(&self, q: &Queue<f64>) -> Lanes {
         self.arch.dispatch(PartialLanes { rc: self, q })
     }
     #[inline(always)]
-    fn end(&self, s: f64) -> [f32; 4] {
-        colour(s, self.tf.eval(s))
-    }
-    #[inline(always)]
-    fn end_next(&self, s: f64, hint: &mut u32) -> [f32; 4] {
-        colour(s, self.tf.eval_from(s, hint))
+    fn end(&self, s: f64) -> f64 {
+        s
     }
     /// `partial`'s f32 segment from the colours at its ends, as `cpu-pt` computes it
     /// ([`segment_from_colours`]): the ray caster's geometry (the walk, the crossings' depths
@@ -267,8 +293,9 @@ impl Shade for RcPartial {
     /// (~1e-7 relative, the f32 exponential's 2e-6 at most) is far inside `partial`'s own error
     /// against `exact` (RMSE ~1e-4 on the NASA grids).
     #[inline(always)]
-    fn segment(&self, f: &[f32; 4], b: &[f32; 4], l: f64) -> Segment {
-        let o = segment_from_colours(self.p.table(), *f, *b, l as f32);
+    fn segment(&self, f: &f64, b: &f64, l: f64) -> Segment {
+        let (cf, cb) = (colour(*f, self.tf.eval(*f)), colour(*b, self.tf.eval(*b)));
+        let o = segment_from_colours(self.p.table(), cf, cb, l as f32);
         Segment {
             rgb: [o[0] as f64, o[1] as f64, o[2] as f64],
             alpha: o[3] as f64,
@@ -280,22 +307,27 @@ impl Shade for RcPartial {
 /// largest ([`TAU_MAX`]), NaN for a scalar that is not finite.
 #[inline(always)]
 fn colour(s: f64, (c, tau): ([f64; 3], f64)) -> [f32; 4] {
-    // (τ is finite where s is: a select, not `min`'s NaN handling.)
     let tau = if s.is_finite() {
-        (if tau < TAU_MAX { tau } else { TAU_MAX }) as f32
+        clamp_tau(tau)
     } else {
         f32::NAN
     };
     [c[0] as f32, c[1] as f32, c[2] as f32, tau]
 }
 
-/// [`RcPartial::segment`] over a queue as a `pulp` operation: the queue's crossings
-/// transposed into lanes (segment `k`'s front is crossing `k`, its back crossing `k + 1`) and
-/// `cpu-pt`'s lane-wise colour kernel ([`colour_lanes_n`], `segment_from_colours`'s operations
+/// A finite τ in f32, at most [`TAU_MAX`] (a select, not `min`'s NaN handling).
+#[inline(always)]
+fn clamp_tau(tau: f64) -> f32 {
+    (if tau < TAU_MAX { tau } else { TAU_MAX }) as f32
+}
+
+/// [`RcPartial::segment`] over a queue as a `pulp` operation: the TF at the queue's crossings
+/// ([`LinearTf::colours`]), in lanes (segment `k`'s front is crossing `k`, its back crossing
+/// `k + 1`), and `cpu-pt`'s lane-wise colour kernel ([`colour_lanes_n`], `segment_from_colours`'s operations
 /// lane by lane, so its bits). Lanes past `q.n` are computed and ignored.
 struct PartialLanes<'a> {
     rc: &'a RcPartial,
-    q: &'a Queue<[f32; 4]>,
+    q: &'a Queue<f64>,
 }
 
 impl pulp::WithSimd for PartialLanes<'_> {
@@ -303,9 +335,9 @@ impl pulp::WithSimd for PartialLanes<'_> {
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, _simd: S) -> Lanes {
         let q = self.q;
-        let cf: [[f32; QUEUE]; 4] = std::array::from_fn(|c| std::array::from_fn(|k| q.ends[k][c]));
-        let cb: [[f32; QUEUE]; 4] =
-            std::array::from_fn(|c| std::array::from_fn(|k| q.ends[k + 1][c]));
+        let e = self.rc.tf.colours(&q.ends, q.n + 1);
+        let cf: [[f32; QUEUE]; 4] = std::array::from_fn(|c| std::array::from_fn(|k| e[c][k]));
+        let cb: [[f32; QUEUE]; 4] = std::array::from_fn(|c| std::array::from_fn(|k| e[c][k + 1]));
         let l = q.l.map(|l| l as f32);
         let mut o = [[0.0f32; QUEUE]; 4];
         colour_lanes_n(self.rc.p.table(), &cf, &cb, &l, &mut o);
@@ -346,8 +378,10 @@ mod tests {
     use super::*;
 
     /// `partial`'s lane-wise segments are `segment`'s, bit for bit, on every lane of full and
-    /// part-filled queues: crossings over the whole TF range and beyond it, thin and thick
-    /// segments (optical depths from 1e-12 to past exp's range), NaN and infinite scalars.
+    /// part-filled queues: crossings over the whole TF range and beyond it and crossings close
+    /// together (most queues then lie in one piece of the TF), thin and thick segments
+    /// (optical depths from 1e-12 to past exp's range), NaN and infinite scalars, and NaN in
+    /// the lanes past the queue.
     #[test]
     fn partial_segments_are_the_scalar_segments_bit_for_bit() {
         let tf = TransferFunction::preset("default").unwrap();
@@ -363,13 +397,18 @@ mod tests {
         };
         let odd = [f64::NAN, f64::INFINITY, -f64::INFINITY, -0.5, 1.5, 0.0, 1.0];
         for round in 0..4000 {
-            let mut q = Queue::<[f32; 4]> {
+            let mut q = Queue::<f64> {
                 n: 1 + round % QUEUE,
                 ..Default::default()
             };
+            let centre = next();
             for k in 0..=QUEUE {
-                let s = if round % 7 == 0 && k % 2 == round % 2 {
+                let s = if k > q.n && round % 5 == 0 {
+                    f64::NAN
+                } else if round % 7 == 0 && k % 2 == round % 2 {
                     odd[(round / 7 + k) % odd.len()]
+                } else if round % 3 == 1 {
+                    centre + 0.01 * next()
                 } else {
                     next()
                 };
@@ -384,6 +423,61 @@ mod tests {
                 let bits = |g: Segment| [g.rgb[0], g.rgb[1], g.rgb[2], g.alpha].map(f64::to_bits);
                 assert_eq!(bits(a), bits(b), "round {round}, lane {k}");
             }
+        }
+    }
+
+    /// The TF's colours lane-wise are the TF's value by value, bit for bit, on `default` and
+    /// on a TF with an empty piece and a step: for runs of scalars inside one piece (the
+    /// lane-wise path, taken in most of the cases here), across pieces, at and beyond the
+    /// points, with NaN and ±∞, and with anything in the lanes past `n`.
+    #[test]
+    fn tf_colours_are_the_tf_value_by_value() {
+        let pt = |s: f64, tau: f64| crate::tf::TfPoint {
+            s,
+            rgb: [s, 1.0 - s, 0.5],
+            tau,
+        };
+        let mut stepped = TransferFunction::preset("default").unwrap();
+        stepped.points = vec![pt(0.0, 0.0), pt(0.3, 1.0), pt(0.3, 5.0), pt(0.7, 2.0), pt(1.0, 9.0)];
+        let mut seed = 17u64;
+        let mut next = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let odd = [f64::NAN, f64::INFINITY, -f64::INFINITY, 0.0, 0.3, 0.7, 1.0];
+        for tf in [TransferFunction::preset("default").unwrap(), stepped] {
+            let lt = LinearTf::new(&tf);
+            let mut one_piece = 0;
+            for round in 0..3000 {
+                let n = 1 + round % (QUEUE + 1);
+                let centre = 1.2 * next() - 0.1;
+                let spread = [1e-6, 1e-3, 0.05, 1.0][round % 4];
+                let s: [f64; QUEUE + 1] = std::array::from_fn(|k| match (k >= n, round % 9) {
+                    (true, 0) => f64::NAN,
+                    (false, 1) if k == n / 2 => odd[round / 9 % odd.len()],
+                    _ => centre + spread * next(),
+                });
+                let pieces: Vec<u32> = s[..n]
+                    .iter()
+                    .map(|&x| {
+                        let mut h = u32::MAX;
+                        let _ = lt.eval_from(x, &mut h);
+                        h
+                    })
+                    .collect();
+                if pieces[0] != u32::MAX && pieces.iter().all(|&h| h == pieces[0]) {
+                    one_piece += 1;
+                }
+                let got = lt.colours(&s, n);
+                for (k, &x) in s.iter().enumerate().take(n) {
+                    let want = colour(x, lt.eval(x));
+                    let lane: [f32; 4] = std::array::from_fn(|c| got[c][k]);
+                    assert_eq!(lane.map(f32::to_bits), want.map(f32::to_bits), "{} {round} lane {k}: {x}", tf.name);
+                }
+            }
+            assert!(one_piece > 1000, "{}: {one_piece} runs in one piece", tf.name);
         }
     }
 

@@ -218,23 +218,26 @@ impl LinearTf {
         Self::lerp(&self.pieces[k], s)
     }
 
-    /// [`colour`] of the TF at the first `n` of `s` (the lanes past them are anything), as
-    /// lanes: `out[c][k]` is channel `c` at `s[k]`. When all `n` lie inside the piece of the
-    /// first — along a ray, most queues — the piece is found once and the `lerp` is lane-wise,
-    /// else each is evaluated alone. The same bits either way: the piece holding `s` is one
-    /// ([`LinearTf::eval_from`]), and the lanes repeat `lerp`'s and `colour`'s operations.
+    /// [`colour`] of the TF at `s0` (a queue's first crossing, scalar) and at the first `n`
+    /// of `s` (its crossings after that; the lanes past them are anything), as lanes:
+    /// `out[c][k]` is channel `c` at `s[k]`. When all of them lie inside the piece of `s0` —
+    /// along a ray, most queues — the piece is the one the scalar look-up of `s0` found and
+    /// the `lerp` is lane-wise, else each is evaluated alone. The same bits either way: the
+    /// piece holding a value is one ([`LinearTf::eval_from`]), and the lanes repeat `lerp`'s
+    /// and `colour`'s operations.
     #[inline(always)]
-    fn colours<const N: usize>(&self, s: &[f64; N], n: usize) -> [[f32; N]; 4] {
+    fn colours<const N: usize>(&self, s0: f64, s: &[f64; N], n: usize) -> ([f32; 4], [[f32; N]; 4]) {
         let last = self.pieces.len() - 1;
         let mut h = u32::MAX;
-        let _ = self.eval_from(s[0], &mut h);
+        let front = colour(s0, self.eval_from(s0, &mut h));
         if let Some(pc) = self.pieces.get(h as usize) {
-            // (As `eval_from`'s hint test, lane by lane; `&`: one branch.)
-            let mut inside = h as usize != last;
+            // (As `eval_from`'s hint test, lane by lane, or-reduced: vector compares.)
+            let mut outside = 0u64;
             for (k, &x) in s.iter().enumerate() {
-                inside &= ((pc.s <= x) & (x < pc.s_next) & (x > self.s0)) | (k >= n);
+                let inside = (pc.s <= x) & (x < pc.s_next) & (x > self.s0);
+                outside |= !(inside | (k >= n)) as u64;
             }
-            if inside {
+            if (h as usize != last) & (outside == 0) {
                 let (v, m) = (&pc.val, &pc.slope);
                 let d: [f64; N] = s.map(|x| x - pc.s);
                 let mut out = [[0.0f32; N]; 4];
@@ -243,7 +246,7 @@ impl LinearTf {
                 }
                 // (Finite: every s is inside a piece of finite extent.)
                 out[3] = std::array::from_fn(|k| clamp_tau(v[3] + d[k] * m[3]));
-                return out;
+                return (front, out);
             }
         }
         let mut out = [[0.0f32; N]; 4];
@@ -253,7 +256,7 @@ impl LinearTf {
                 out[c][k] = e[c];
             }
         }
-        out
+        (front, out)
     }
 
     /// Piece `pc` at `s`: its value at its start plus `(s − start)` times its slope.
@@ -335,9 +338,12 @@ impl pulp::WithSimd for PartialLanes<'_> {
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, _simd: S) -> Lanes {
         let q = self.q;
-        let e = self.rc.tf.colours(&q.ends, q.n + 1);
-        let cf: [[f32; QUEUE]; 4] = std::array::from_fn(|c| std::array::from_fn(|k| e[c][k]));
-        let cb: [[f32; QUEUE]; 4] = std::array::from_fn(|c| std::array::from_fn(|k| e[c][k + 1]));
+        // Crossing 0 is segment 0's front; crossings 1..=QUEUE are the backs, and the fronts
+        // of segments 1.. are the backs shifted by a lane.
+        let backs: [f64; QUEUE] = std::array::from_fn(|k| q.ends[k + 1]);
+        let (e0, cb) = self.rc.tf.colours(q.ends[0], &backs, q.n);
+        let cf: [[f32; QUEUE]; 4] =
+            std::array::from_fn(|c| std::array::from_fn(|k| if k == 0 { e0[c] } else { cb[c][k - 1] }));
         let l = q.l.map(|l| l as f32);
         let mut o = [[0.0f32; QUEUE]; 4];
         colour_lanes_n(self.rc.p.table(), &cf, &cb, &l, &mut o);
@@ -470,10 +476,14 @@ mod tests {
                 if pieces[0] != u32::MAX && pieces.iter().all(|&h| h == pieces[0]) {
                     one_piece += 1;
                 }
-                let got = lt.colours(&s, n);
+                let backs: [f64; QUEUE] = std::array::from_fn(|k| s[k + 1]);
+                let (front, got) = lt.colours(s[0], &backs, n - 1);
                 for (k, &x) in s.iter().enumerate().take(n) {
                     let want = colour(x, lt.eval(x));
-                    let lane: [f32; 4] = std::array::from_fn(|c| got[c][k]);
+                    let lane: [f32; 4] = match k {
+                        0 => front,
+                        _ => std::array::from_fn(|c| got[c][k - 1]),
+                    };
                     assert_eq!(lane.map(f32::to_bits), want.map(f32::to_bits), "{} {round} lane {k}: {x}", tf.name);
                 }
             }

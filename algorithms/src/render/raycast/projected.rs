@@ -503,6 +503,18 @@ fn drain<S: Shade>(
     run.q.n = 0;
     // The last crossing is the front of the walk's next segment.
     run.q.ends[0] = run.q.ends[n];
+    // All n at once (a segment of no length shades as zero, a no-op), and the termination
+    // test once: opacity only grows, so the ray turned opaque on one of them iff it is opaque
+    // after all of them. Only then are they composited again, one by one as the reference
+    // walk does, to stop on the one that made it opaque.
+    let before = *acc;
+    for k in 0..n {
+        composite_under(acc, out.get(k));
+    }
+    if 1.0 - acc.alpha >= TERMINATE_T {
+        return false;
+    }
+    *acc = before;
     for (k, m) in run.marks.iter().enumerate().take(n) {
         // (A step of no length queued a segment of no length: nothing to composite.)
         if run.q.l[k] > 0.0 {

@@ -435,6 +435,8 @@ pub(super) struct Run<E> {
     /// Steps, walk fallbacks and the two predicates' filter fallbacks.
     marks: [[u64; 4]; QUEUE],
     t: f64,
+    /// The instruction set [`Blend`] runs on, detected once per band.
+    arch: pulp::Arch,
 }
 
 impl<E: Copy + Default> Default for Run<E> {
@@ -446,6 +448,7 @@ impl<E: Copy + Default> Default for Run<E> {
             s: [[0.0; QUEUE]; 3],
             marks: [[0; 4]; QUEUE],
             t: 0.0,
+            arch: pulp::Arch::new(),
         }
     }
 }
@@ -475,22 +478,11 @@ fn drain<S: Shade>(
     if n == 0 {
         return false;
     }
-    let (mut tt, mut sv) = ([0.0; QUEUE], [0.0; QUEUE]);
-    for k in 0..QUEUE {
-        let w = [run.wt[0][k], run.wt[1][k], run.wt[2][k]];
-        let sum = w[0] + w[1] + w[2];
-        let r = 1.0 / sum;
-        // `sum > 0` and finite, tested as `r > 0` (1/sum is 0 only for sum = +∞, and NaN for
-        // NaN): two vector comparisons, where LLVM made `is_finite` (and `sum < ∞`) a dozen
-        // scalar bit-test instructions a lane.
-        let wn = if (sum > 0.0) & (r > 0.0) {
-            w.map(|v| v * r)
-        } else {
-            [1.0 / 3.0; 3]
-        };
-        tt[k] = wn[0] * run.z[0][k] + wn[1] * run.z[1][k] + wn[2] * run.z[2][k];
-        sv[k] = wn[0] * run.s[0][k] + wn[1] * run.s[1][k] + wn[2] * run.s[2][k];
-    }
+    let (tt, sv) = run.arch.dispatch(Blend {
+        wt: &run.wt,
+        z: &run.z,
+        s: &run.s,
+    });
     let mut t_in = run.t;
     for k in 0..n {
         let t_out = tt[k].max(t_in);
@@ -529,6 +521,41 @@ fn drain<S: Shade>(
         }
     }
     false
+}
+
+/// The queued crossings' depths and scalars: the barycentric blend of their faces' vertices
+/// with the normalised weights (a third each where they sum to 0 or overflow), lane by lane, as
+/// a `pulp` operation (AVX2 lanes where the CPU has them; the same operations, so the same bits
+/// on any instruction set). Lanes past the queue are computed and ignored.
+struct Blend<'a> {
+    wt: &'a [[f64; QUEUE]; 3],
+    z: &'a [[f64; QUEUE]; 3],
+    s: &'a [[f64; QUEUE]; 3],
+}
+
+impl pulp::WithSimd for Blend<'_> {
+    type Output = ([f64; QUEUE], [f64; QUEUE]);
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) -> Self::Output {
+        let (wt, z, s) = (self.wt, self.z, self.s);
+        let (mut tt, mut sv) = ([0.0; QUEUE], [0.0; QUEUE]);
+        for k in 0..QUEUE {
+            let w = [wt[0][k], wt[1][k], wt[2][k]];
+            let sum = w[0] + w[1] + w[2];
+            let r = 1.0 / sum;
+            // `sum > 0` and finite, tested as `r > 0` (1/sum is 0 only for sum = +∞, and NaN
+            // for NaN): two vector comparisons, where LLVM made `is_finite` (and `sum < ∞`) a
+            // dozen scalar bit-test instructions a lane.
+            let wn = if (sum > 0.0) & (r > 0.0) {
+                w.map(|v| v * r)
+            } else {
+                [1.0 / 3.0; 3]
+            };
+            tt[k] = wn[0] * z[0][k] + wn[1] * z[1][k] + wn[2] * z[2][k];
+            sv[k] = wn[0] * s[0][k] + wn[1] * s[1][k] + wn[2] * s[2][k];
+        }
+        (tt, sv)
+    }
 }
 
 /// No exit face is consistent (a flat cell, or signs from a degenerate tie): the face whose

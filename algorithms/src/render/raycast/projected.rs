@@ -287,7 +287,6 @@ impl Prepared {
         seed: &mut u32,
         run: &mut Run<S::End>,
     ) -> (Segment, RayStats) {
-        let fr = Frame2::new(ctx, self.max_abs, shared);
         let mut acc = Segment::default();
         let mut stats = RayStats::default();
         let mut t_min = f64::NEG_INFINITY;
@@ -302,6 +301,16 @@ impl Prepared {
                 .first_entry(self, tets, front, ctx, t_min, exclude, seed),
         };
         let mut found = entry(t_min, exclude, *seed);
+        if found.is_none() {
+            // A ray that enters nowhere (most of them, beside a mesh) needs no frame: only the
+            // check that it crosses no face.
+            if self.bvh.any_crossing(self, tets, ctx) {
+                stats.missed += 1;
+            }
+            stats.filter_fallbacks = ctx.fallbacks.get();
+            return (acc, stats);
+        }
+        let fr = Frame2::new(ctx, self.max_abs, shared);
         // Crossings wait in `run` and are interpolated, shaded and composited a queue at a time.
         // (Its rows are not cleared between rays: every entry starts with an empty queue, and
         // the lanes past it are computed and ignored.)
@@ -413,9 +422,6 @@ impl Prepared {
                 g = tets[tet];
             }
             found = entry(t_min - self.t_eps, exclude, u32::MAX);
-        }
-        if first && self.bvh.any_crossing(self, tets, ctx) {
-            stats.missed += 1;
         }
         stats.filter_fallbacks = ctx.fallbacks.get() + fr.fallbacks.get();
         (acc, stats)

@@ -218,6 +218,9 @@ fn spans<S: pulp::Simd>(
         }
     }
     let stepv = step.map(|v| simd.splat_f32s(v));
+    // The lane offsets 0, 1, …: one whole-vector load (`partial_load` is pulp's masked-load
+    // call even for a full vector).
+    let iota = S::as_simd_f32s(&IOTA[..lanes]).0[0];
     while let Some(row) = tr.next_row() {
         let n = (row.i1 - row.i0 + 1) as usize;
         let (r, a) = ((row.j - j0) as f64, (row.i0 - ia) as f64);
@@ -229,10 +232,7 @@ fn spans<S: pulp::Simd>(
         let p0 = ((row.j - y0) as usize * ts + (row.i0 - x0) as usize) as u16;
         let base = base.map(|v| simd.splat_f32s(v));
         for c in 0..n.div_ceil(lanes) {
-            let x = simd.add_f32s(
-                simd.partial_load_f32s(&IOTA[..lanes]),
-                simd.splat_f32s((c * lanes) as f32),
-            );
+            let x = simd.add_f32s(iota, simd.splat_f32s((c * lanes) as f32));
             let plane = |ch: usize, k: usize| simd.mul_add_f32s(x, stepv[ch * 4 + k], base[ch * 4 + k]);
             let (mut vf, mut vb, mut vl) = (plane(0, 0), plane(1, 0), plane(2, 0));
             for k in 1..4 {

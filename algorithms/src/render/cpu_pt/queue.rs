@@ -109,8 +109,10 @@ impl<'a> Queue<'a> {
     ) {
         let lanes = S::F32_LANES;
         let at = self.len;
+        // A whole vector a store: `partial_store` took pulp's masked-store path (a call a
+        // store) even for a full vector.
         let put = |dst: &mut [f32; BATCH], x: S::f32s| {
-            simd.partial_store_f32s(&mut dst[at..at + lanes], x);
+            S::as_mut_simd_f32s(&mut dst[at..at + lanes]).0[0] = x;
         };
         match (self.colours, line) {
             (None, _) => {
@@ -129,7 +131,7 @@ impl<'a> Queue<'a> {
             (Some((tf, _)), None) => {
                 let mut tmp = [[0.0f32; 16]; 3];
                 for (t, x) in tmp.iter_mut().zip([v.sf, v.sb, v.l]) {
-                    simd.partial_store_f32s(&mut t[..lanes.min(16)], x);
+                    S::as_mut_simd_f32s(&mut t[..lanes.min(16)]).0[0] = x;
                 }
                 let [sf, sb, l] = &tmp;
                 for (j, ((&f, &b), &l)) in sf.iter().zip(sb).zip(l).take(v.count).enumerate() {

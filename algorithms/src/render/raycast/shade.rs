@@ -442,19 +442,31 @@ mod tests {
         }
     }
 
+    /// A TF point at `s` with extinction `tau` (colour from `s`).
+    fn tf_point(s: f64, tau: f64) -> crate::tf::TfPoint {
+        crate::tf::TfPoint {
+            s,
+            rgb: [s, 1.0 - s, 0.5],
+            tau,
+        }
+    }
+
+    /// A TF with a repeated point (an empty piece) and a step in τ at 0.3.
+    fn stepped_tf() -> TransferFunction {
+        let mut tf = TransferFunction::preset("default").unwrap();
+        tf.points = [(0.0, 0.0), (0.3, 1.0), (0.3, 5.0), (0.7, 2.0), (1.0, 9.0)]
+            .map(|(s, tau)| tf_point(s, tau))
+            .to_vec();
+        tf
+    }
+
     /// The TF's colours lane-wise are the TF's value by value, bit for bit, on `default` and
     /// on a TF with an empty piece and a step: for runs of scalars inside one piece (the
     /// lane-wise path, taken in most of the cases here), across pieces, at and beyond the
     /// points, with NaN and ±∞, and with anything in the lanes past `n`.
     #[test]
     fn tf_colours_are_the_tf_value_by_value() {
-        let pt = |s: f64, tau: f64| crate::tf::TfPoint {
-            s,
-            rgb: [s, 1.0 - s, 0.5],
-            tau,
-        };
-        let mut stepped = TransferFunction::preset("default").unwrap();
-        stepped.points = vec![pt(0.0, 0.0), pt(0.3, 1.0), pt(0.3, 5.0), pt(0.7, 2.0), pt(1.0, 9.0)];
+        let stepped = stepped_tf();
         let mut seed = 17u64;
         let mut next = || {
             seed = seed
@@ -506,15 +518,9 @@ mod tests {
     /// step, and on one point, for values inside, between and beyond the points, NaN and ±∞.
     #[test]
     fn tf_from_a_hint_is_the_tf_from_the_search() {
-        let pt = |s: f64, tau: f64| crate::tf::TfPoint {
-            s,
-            rgb: [s, 1.0 - s, 0.5],
-            tau,
-        };
-        let mut stepped = TransferFunction::preset("default").unwrap();
-        stepped.points = vec![pt(0.0, 0.0), pt(0.3, 1.0), pt(0.3, 5.0), pt(0.7, 2.0), pt(1.0, 9.0)];
+        let stepped = stepped_tf();
         let mut single = stepped.clone();
-        single.points = vec![pt(0.4, 3.0)];
+        single.points = vec![tf_point(0.4, 3.0)];
         for tf in [TransferFunction::preset("default").unwrap(), stepped, single] {
             let lt = LinearTf::new(&tf);
             let mut xs: Vec<f64> = (0..=2000).map(|i| -0.1 + 1.2 * i as f64 / 2000.0).collect();

@@ -430,8 +430,8 @@ impl Prepared {
 
 /// A ray's queued crossings, before and after they are interpolated: per queued step the three
 /// weights of the exit face's vertices and their depths and scalars (lane `k` of each row, the
-/// step that queued segment `k`), the counters as they were when it was queued, the depth of
-/// the queue's first crossing (`q.ends[0]`).
+/// step that queued segment `k`), the counters as they were when it was queued, and the depth
+/// `t` of the queue's first crossing (whose end, for the shader, is `q.ends[0]`).
 #[derive(Clone, Copy)]
 pub(super) struct Run<E> {
     q: Queue<E>,
@@ -468,8 +468,8 @@ impl<E: Copy + Default> Default for Run<E> {
 /// normalised weights (a third each where they sum to 0 or overflow), lane by lane; then, in
 /// order, its depth no nearer than the previous crossing's (`t_out = max(t, t_in)`), the
 /// segment's optical length `(t_out − t_in)/L` and the TF at its scalar. Segments of no length
-/// (a step through an edge or a flat cell) are not composited: the next one starts from their
-/// back crossing.
+/// (a step through an edge or a flat cell) shade as zero and composite as nothing: the next one
+/// starts from their back crossing.
 #[inline(always)]
 fn drain<S: Shade>(
     shade: &S,

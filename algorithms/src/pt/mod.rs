@@ -491,4 +491,4 @@ pub fn classify(v: &[ProjVertex; 4], persp: bool, inv_l: f64) -> Thick {
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

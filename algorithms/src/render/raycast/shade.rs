@@ -467,13 +467,8 @@ mod tests {
     #[test]
     fn tf_colours_are_the_tf_value_by_value() {
         let stepped = stepped_tf();
-        let mut seed = 17u64;
-        let mut next = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rng = crate::pt::tests::Rng::new(17);
+        let mut next = || rng.f();
         let odd = [f64::NAN, f64::INFINITY, -f64::INFINITY, 0.0, 0.3, 0.7, 1.0];
         for tf in [TransferFunction::preset("default").unwrap(), stepped] {
             let lt = LinearTf::new(&tf);

@@ -40,19 +40,36 @@ pub const MAX_FAN: usize = 5;
 /// value there, so `0 < r ≤ st`. From row to row `h` grows by `sr`, so `k` moves by `q` or
 /// `q + 1` with `q = ⌊−sr/st⌋`: `r` grows by `step = sr + q·st ∈ (−st, 0]`, and where that
 /// leaves `r ≤ 0` one more column is needed (an exact integer DDA: no division per row).
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug)]
 struct SilEdge {
     k: i64,
     r: i64,
     st: i64,
     q: i64,
     step: i64,
+    /// Bounds the row from above (taken in `−k`).
+    hi: bool,
+}
+
+impl Default for SilEdge {
+    /// An edge that bounds nothing (from below, at column 0, forever): it fills the unused
+    /// slots, so that every row steps four edges without a branch on how many there are.
+    fn default() -> SilEdge {
+        SilEdge {
+            k: 0,
+            r: 1,
+            st: 1,
+            q: 0,
+            step: 0,
+            hi: false,
+        }
+    }
 }
 
 impl SilEdge {
     /// Edge `h + k·st` (`st > 0`) whose `h` grows by `sr` a row.
     #[inline(always)]
-    fn new(h: i64, st: i64, sr: i64) -> SilEdge {
+    fn new(h: i64, st: i64, sr: i64, hi: bool) -> SilEdge {
         let inv = 1.0 / st as f64;
         let k = first_positive(h, st, inv);
         let q = first_positive(sr, st, inv) - 1;
@@ -62,16 +79,19 @@ impl SilEdge {
             st,
             q,
             step: sr + q * st,
+            hi,
         }
     }
 
     /// To the next row.
     #[inline(always)]
     fn advance(&mut self) {
-        self.r += self.step;
-        let up = (self.r <= 0) as i64;
-        self.r += up * self.st;
-        self.k += self.q + up;
+        // The extra column is Bresenham's coin toss: a select, not a branch (LLVM made
+        // `up · st` a jump, mispredicted on ~2 rows in 3).
+        let r = self.r + self.step;
+        let up = r <= 0;
+        self.r = std::hint::select_unpredictable(up, r + self.st, r);
+        self.k += self.q + up as i64;
     }
 }
 
@@ -88,13 +108,6 @@ fn first_positive(h: i64, st: i64, inv: f64) -> i64 {
     k -= (h + (k - 1) * st > 0) as i64;
     k += (h + k * st <= 0) as i64;
     k
-}
-
-/// A horizontal silhouette edge: a row is inside it or not, by the sign of `h` (growing by `sr`).
-#[derive(Clone, Copy, Debug, Default)]
-struct FlatEdge {
-    h: i64,
-    sr: i64,
 }
 
 /// One classified tet, set up for [`TetRaster::rows`] (which consumes its rows: `j0` and `g`
@@ -123,14 +136,12 @@ pub struct TetRaster {
     /// of [`Fragment`]).
     pub inv_x: [f64; 4],
     pub inv_y: [f64; 4],
-    /// Silhouette edges (at most four in all): those bounding the row from below (st > 0) in
-    /// `sil[..nlo]`, those from above (st < 0, taken in −k) in `sil[4 - nhi..]`, and the
-    /// horizontal ones in `flat[..nflat]`.
+    /// The slanted silhouette edges (at most four; the rest of the slots bound nothing). A
+    /// horizontal one bounds rows, not columns: it narrows `j0..=j1` once, in the set-up.
     sil: [SilEdge; 4],
-    flat: [FlatEdge; 4],
-    nlo: u8,
-    nhi: u8,
-    nflat: u8,
+    nsil: usize,
+    /// Rows a horizontal silhouette edge excludes at the top (stepped over once set up).
+    skip: i64,
 }
 
 /// One row of the silhouette: columns `i0..=i1` of row `j`, every centre of it inside the
@@ -198,10 +209,8 @@ impl TetRaster {
             inv_x: [0.0; 4],
             inv_y: [0.0; 4],
             sil: [SilEdge::default(); 4],
-            flat: [FlatEdge::default(); 4],
-            nlo: 0,
-            nhi: 0,
-            nflat: 0,
+            nsil: 0,
+            skip: 0,
         };
         let dir = |k: usize| dir_from_thick(c, q, c.fan[k] as usize);
         for k in 0..=n {
@@ -231,23 +240,50 @@ impl TetRaster {
             let d = dir(n);
             r.add_silhouette(Edge::new(q[c.fan[n] as usize], [-d[0], -d[1]]), p);
         }
-        Some(r)
+        for _ in 0..r.skip {
+            r.step_row();
+        }
+        (r.j0 <= r.j1).then_some(r)
+    }
+
+    /// Steps every edge to the next row.
+    #[inline(always)]
+    fn step_row(&mut self) {
+        for e in self.sil.iter_mut() {
+            e.advance();
+        }
+        for (v, s) in self.g.iter_mut().zip(&self.gsr) {
+            *v += s;
+        }
+        self.j0 += 1;
     }
 
     /// Files silhouette edge `e` (biased value at centre `p`) by the side it bounds rows from.
     #[inline(always)]
     fn add_silhouette(&mut self, e: Edge, p: [i64; 2]) {
         let (h, st, sr) = (e.at(p) + e.bias, -e.d[1] * SUBPIXEL, e.d[0] * SUBPIXEL);
-        if st > 0 {
-            self.sil[self.nlo as usize] = SilEdge::new(h, st, sr);
-            self.nlo += 1;
-        } else if st < 0 {
-            // h + k·st = h + (−k)·(−st).
-            self.nhi += 1;
-            self.sil[4 - self.nhi as usize] = SilEdge::new(h, -st, sr);
+        if st != 0 {
+            // From above (st < 0): h + k·st = h + (−k)·(−st). A select, as the side is a coin
+            // toss per edge.
+            let hi = st < 0;
+            self.sil[self.nsil] = SilEdge::new(h, st.abs(), sr, hi);
+            self.nsil += 1;
         } else {
-            self.flat[self.nflat as usize] = FlatEdge { h, sr };
-            self.nflat += 1;
+            // Horizontal: row r (from j0) is inside iff h + r·sr > 0.
+            let last = self.j1 - self.j0;
+            if sr > 0 {
+                // Rows above the first inside are stepped over at the end of the set-up (the
+                // other edges are set up at j0).
+                let first = first_positive(h, sr, 1.0 / sr as f64).clamp(0, last + 1);
+                self.skip = self.skip.max(first);
+            } else if sr < 0 {
+                // The last r with h + r·sr > 0 is one before the first with (1 − h) + r·(−sr) > 0.
+                let end = first_positive(1 - h, -sr, -1.0 / sr as f64) - 1;
+                self.j1 = self.j0 + end.clamp(-1, last);
+            } else if h <= 0 {
+                // A zero-length edge that excludes everything.
+                self.j1 = self.j0 - 1;
+            }
         }
     }
 
@@ -266,28 +302,15 @@ impl TetRaster {
     #[inline(always)]
     pub fn next_row(&mut self) -> Option<TetRow> {
         let last = self.ib - self.ia;
-        let (nlo, nhi) = (self.nlo as usize, self.nhi as usize);
-        let (lo, rest) = self.sil.split_at_mut(nlo);
-        let hi = &mut rest[4 - nlo - nhi..];
-        let flat = &mut self.flat[..self.nflat as usize];
         while self.j0 <= self.j1 {
             let j = self.j0;
             let (mut a, mut b) = (0i64, last);
-            for e in lo.iter_mut() {
-                // The first k with h + k·st > 0.
-                a = a.max(e.k);
+            for e in self.sil.iter_mut() {
+                // From below: the first k with h + k·st > 0. From above: the last k with
+                // h + k·st > 0 (st < 0), −(the first −k with h + (−k)(−st) > 0).
+                a = a.max(std::hint::select_unpredictable(e.hi, 0, e.k));
+                b = b.min(std::hint::select_unpredictable(e.hi, -e.k, last));
                 e.advance();
-            }
-            for e in hi.iter_mut() {
-                // The last k with h + k·st > 0 (st < 0): −(the first −k with h + (−k)(−st) > 0).
-                b = b.min(-e.k);
-                e.advance();
-            }
-            for e in flat.iter_mut() {
-                if e.h <= 0 {
-                    b = -1;
-                }
-                e.h += e.sr;
             }
             let g = self.g;
             for (v, s) in self.g.iter_mut().zip(&self.gsr) {

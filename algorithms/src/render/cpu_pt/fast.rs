@@ -202,8 +202,10 @@ fn spans<S: pulp::Simd>(
     // Triangles past ntri repeat triangle 0 (min and max are idempotent).
     let tri = |k: usize| if k < ntri { k } else { 0 };
     // Per plane (index ch·4 + k): its value at centre (ia, j0), in f64, and its steps per
-    // row and per column; the row's start is then two multiply-adds a plane (vectorised),
-    // not the plane's evaluation from the fan edges.
+    // row and per column, each times the channel's sign (exact); the row's start is then a
+    // product and a sum twice a plane, in f64 vectors (four planes a vector with AVX2), not
+    // the plane's evaluation from the fan edges. (Negating before the rounding to f32 gives
+    // the bits of negating after it.)
     let (ia, j0) = (tr.ia, tr.j0);
     let f0: [f64; MAX_FAN] = std::array::from_fn(|m| (tr.g[m] - gbias[m]) as f64);
     let (mut v0, mut dy, mut dx) = ([0.0f64; 12], [0.0f64; 12], [0.0f64; 12]);
@@ -211,10 +213,11 @@ fn spans<S: pulp::Simd>(
     for (ch, &sc) in sign.iter().enumerate() {
         for k in 0..4 {
             let (t, p) = (tri(k), ch * 4 + k);
-            v0[p] = pl.at(&f0, t, ch);
-            dy[p] = tr.gsr[t + 1] as f64 * pl.cx[t][ch] + tr.gsr[t] as f64 * pl.cy[t][ch];
-            dx[p] = pl.da[t][ch];
-            step[p] = dx[p] as f32 * sc;
+            let sc = sc as f64;
+            v0[p] = pl.at(&f0, t, ch) * sc;
+            dy[p] = (tr.gsr[t + 1] as f64 * pl.cx[t][ch] + tr.gsr[t] as f64 * pl.cy[t][ch]) * sc;
+            dx[p] = pl.da[t][ch] * sc;
+            step[p] = dx[p] as f32;
         }
     }
     let stepv = step.map(|v| simd.splat_f32s(v));
@@ -224,10 +227,21 @@ fn spans<S: pulp::Simd>(
     while let Some(row) = tr.next_row() {
         let n = (row.i1 - row.i0 + 1) as usize;
         let (r, a) = ((row.j - j0) as f64, (row.i0 - ia) as f64);
-        let mut base = [0.0f32; 12];
-        for p in 0..12 {
-            base[p] = (v0[p] + r * dy[p] + a * dx[p]) as f32 * sign[p / 4];
+        let mut b64 = [0.0f64; 12];
+        {
+            let (rv, av) = (simd.splat_f64s(r), simd.splat_f64s(a));
+            let ((v0v, v0t), (dyv, dyt), (dxv, dxt)) =
+                (S::as_simd_f64s(&v0), S::as_simd_f64s(&dy), S::as_simd_f64s(&dx));
+            let (bv, bt) = S::as_mut_simd_f64s(&mut b64);
+            for (((b, &v), &y), &x) in bv.iter_mut().zip(v0v).zip(dyv).zip(dxv) {
+                // (v0 + r·dy) + a·dx, each operation rounded as the scalar expression.
+                *b = simd.add_f64s(simd.add_f64s(v, simd.mul_f64s(rv, y)), simd.mul_f64s(av, x));
+            }
+            for (((b, &v), &y), &x) in bt.iter_mut().zip(v0t).zip(dyt).zip(dxt) {
+                *b = v + r * y + a * x;
+            }
         }
+        let base = b64.map(|v| v as f32);
         qu.reserve(n.div_ceil(lanes) * lanes, buf);
         let p0 = ((row.j - y0) as usize * ts + (row.i0 - x0) as usize) as u16;
         let base = base.map(|v| simd.splat_f32s(v));

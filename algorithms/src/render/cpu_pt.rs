@@ -5,7 +5,7 @@
 //! 1. **project** — every vertex to snapped pixel coordinates and depth; every tet classified by
 //!    the ternary truth table of [`crate::pt`] (thick vertex, `s_f`, `s_b`, `l`, fan);
 //! 2. **sort** — the visibility order, back to front (farthest first);
-//! 3. **draw** — the drawn tets are binned to 64×64-pixel tiles in sorted order; tiles are
+//! 3. **draw** — the drawn tets are binned to 128×128-pixel tiles in sorted order; tiles are
 //!    rendered in parallel (rayon), each compositing its tets in that order into its own f32
 //!    RGBA buffer, so the result is the same as one sequential back-to-front pass. Per fragment,
 //!    (`s_f`, `s_b`, `l`) are interpolated over the fan triangle (thick vertex: its values; the
@@ -60,7 +60,7 @@ use crate::tf::TransferFunction;
 /// Registry entry for `cpu-pt` (`partial` and `centroid` by default).
 pub static CPU_PT: RendererInfo = RendererInfo {
     name: "cpu-pt",
-    description: "CPU projected tetrahedra: PTINT classification, fans rasterised in 64x64 tiles \
+    description: "CPU projected tetrahedra: PTINT classification, fans rasterised in 128x128 tiles \
                   (rayon), composited back to front",
     sorts: crate::sort::SORTS,
     integrators: &INTEGRATORS,
@@ -79,7 +79,7 @@ pub static CPU_PT: RendererInfo = RendererInfo {
 };
 
 /// Tile side in pixels.
-pub const TILE: u32 = 64;
+pub const TILE: u32 = 128;
 
 pub struct CpuPt {
     /// The registry name this instance reports (`cpu-pt`, or a variant's).

@@ -174,7 +174,7 @@ impl Planes {
 /// and concave when σ < 0 (the min), and `s_b = S + σ·z_out` the other way round; σ has the sign
 /// of `s_b − s_f` at the thick vertex (`sigma_up`). On each triangle its own plane attains the
 /// min (max), so the value is its plane's, up to rounding: the planes are evaluated in f32
-/// (`base + k·step`, k < 64) where the per-pixel kernel rounds its f64 value once.
+/// (`base + k·step`, k < 128, the tile's width) where the per-pixel kernel rounds its f64 value once.
 ///
 /// Every centre of a row is in the fan when all its triangles are valid (they tile the
 /// silhouette), which the caller checks; the queue takes the whole row.

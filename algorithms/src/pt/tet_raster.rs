@@ -212,7 +212,16 @@ impl TetRaster {
             nsil: 0,
             skip: 0,
         };
-        let dir = |k: usize| dir_from_thick(c, q, c.fan[k] as usize);
+        // Each fan edge's direction once (the fan edges, the normalisers and the open fans'
+        // ends read them).
+        let dirs: [[i64; 2]; MAX_FAN] = std::array::from_fn(|k| {
+            if k <= n {
+                dir_from_thick(c, q, c.fan[k] as usize)
+            } else {
+                [0, 0]
+            }
+        });
+        let dir = |k: usize| dirs[k];
         for k in 0..=n {
             let e = Edge::new(q[c.fan[k] as usize], dir(k));
             r.g[k] = e.at(p) + e.bias;

@@ -314,18 +314,14 @@ impl TetRaster {
         while self.j0 <= self.j1 {
             let j = self.j0;
             let (mut a, mut b) = (0i64, last);
-            for e in self.sil.iter_mut() {
+            for e in &self.sil {
                 // From below: the first k with h + k·st > 0. From above: the last k with
                 // h + k·st > 0 (st < 0), −(the first −k with h + (−k)(−st) > 0).
                 a = a.max(std::hint::select_unpredictable(e.hi, 0, e.k));
                 b = b.min(std::hint::select_unpredictable(e.hi, -e.k, last));
-                e.advance();
             }
             let g = self.g;
-            for (v, s) in self.g.iter_mut().zip(&self.gsr) {
-                *v += s;
-            }
-            self.j0 += 1;
+            self.step_row();
             if a <= b {
                 return Some(TetRow {
                     j,

@@ -174,7 +174,8 @@ impl Planes {
 /// and concave when σ < 0 (the min), and `s_b = S + σ·z_out` the other way round; σ has the sign
 /// of `s_b − s_f` at the thick vertex (`sigma_up`). On each triangle its own plane attains the
 /// min (max), so the value is its plane's, up to rounding: the planes are evaluated in f32
-/// (`base + k·step`, k < 128, the tile's width) where the per-pixel kernel rounds its f64 value once.
+/// (`base + k·step`, k < 128, the tile's width) where the per-pixel kernel rounds its f64 value
+/// once.
 ///
 /// Every centre of a row is in the fan when all its triangles are valid (they tile the
 /// silhouette), which the caller checks; the queue takes the whole row.
@@ -211,9 +212,9 @@ fn spans<S: pulp::Simd>(
     let (mut v0, mut dy, mut dx) = ([0.0f64; 12], [0.0f64; 12], [0.0f64; 12]);
     let mut step = [0.0f32; 12];
     for (ch, &sc) in sign.iter().enumerate() {
+        let sc = sc as f64;
         for k in 0..4 {
             let (t, p) = (tri(k), ch * 4 + k);
-            let sc = sc as f64;
             v0[p] = pl.at(&f0, t, ch) * sc;
             dy[p] = (tr.gsr[t + 1] as f64 * pl.cx[t][ch] + tr.gsr[t] as f64 * pl.cy[t][ch]) * sc;
             dx[p] = pl.da[t][ch] * sc;

@@ -36,7 +36,7 @@ mod raster;
 mod tet_raster;
 
 pub use faces::{fan_segment, FaceSegment, FaceVertex};
-pub use raster::{raster_fan, raster_fan_rows, FanGeometry, Fragment, Row};
+pub use raster::{pixel_box, raster_fan, raster_fan_rows, FanGeometry, Fragment, Row};
 pub use tet_raster::{fan_bits, wedge, TetRaster, TetRow, MAX_FAN};
 
 use glam::DVec3;
@@ -488,6 +488,55 @@ pub fn classify(v: &[ProjVertex; 4], persp: bool, inv_l: f64) -> Thick {
         (out.sf, out.sb, out.zf, out.zb) = (sb, sa, zb, za);
     }
     out
+}
+
+/// [`classify`] in an orthographic view, for what `cpu-pt`'s fast path keeps of it: the table
+/// index and, for a drawn tet, `[s_f, s_b, l]` (else zeros), with `classify`'s bits (test:
+/// `classify_ortho_is_classify`). From the vertices' snapped coordinates `q`, depths `z`,
+/// centred positions `p` and TF coordinates `s`.
+///
+/// What it leaves out is what the fast path does not read (the thick vertex's screen position,
+/// the depths); and the hull points are sums over all four vertices with the weights of the
+/// set's non-members zero instead of loops over the members: adding `0·x` (x finite) to a sum
+/// leaves it as it was, so the sums are `hull_point`'s, without a branch per vertex.
+#[inline(always)]
+pub fn classify_ortho(
+    q: &[[i64; 2]; 4],
+    z: &[f64; 4],
+    p: &[DVec3; 4],
+    s: &[f64; 4],
+    inv_l: f64,
+) -> (u8, [f64; 3]) {
+    let t = tests(q);
+    let idx = table_index(&t);
+    let c = &TABLE[idx];
+    if !c.drawn() {
+        return (idx as u8, [0.0; 3]);
+    }
+    let w = radon_weights(&t);
+    // The hull point of a set: λ_k = w_k / Σ_set w (0 off the set); position, scalar, depth.
+    let hull = |set: u8| {
+        let wk: [f64; 4] = std::array::from_fn(|k| {
+            if set & (1 << k) != 0 {
+                w[k] as f64
+            } else {
+                0.0
+            }
+        });
+        let sum = ((0.0 + wk[0]) + wk[1]) + wk[2] + wk[3];
+        let (mut pp, mut ss, mut zz) = (DVec3::ZERO, 0.0, 0.0);
+        for k in 0..4 {
+            let lam = wk[k] / sum;
+            pp += lam * p[k];
+            ss += lam * s[k];
+            zz += lam * z[k];
+        }
+        (pp, ss, zz)
+    };
+    let ((pa, sa, za), (pb, sb, zb)) = (hull(c.side_a), hull(c.side_b));
+    let l = (pb - pa).length() * inv_l;
+    let (sf, sb) = if za <= zb { (sa, sb) } else { (sb, sa) };
+    (idx as u8, [sf, sb, l])
 }
 
 #[cfg(test)]

@@ -45,20 +45,27 @@ impl FanGeometry {
 
     /// Pixel bounding box (inclusive) of the silhouette.
     pub fn pixel_bounds(&self) -> [i64; 4] {
-        let (mut lo, mut hi) = ([i64::MAX; 2], [i64::MIN; 2]);
-        for p in &self.q {
-            for a in 0..2 {
-                lo[a] = lo[a].min(p[a]);
-                hi[a] = hi[a].max(p[a]);
-            }
-        }
-        [
-            first_centre(lo[0]),
-            first_centre(lo[1]),
-            last_centre(hi[0]),
-            last_centre(hi[1]),
-        ]
+        pixel_box(&self.q)
     }
+}
+
+/// Pixel bounding box (inclusive: first and last centre columns and rows) of four snapped
+/// points; empty (first > last) where no centre lies inside their box.
+#[inline]
+pub fn pixel_box(q: &[[i64; 2]; 4]) -> [i64; 4] {
+    let (mut lo, mut hi) = ([i64::MAX; 2], [i64::MIN; 2]);
+    for p in q {
+        for a in 0..2 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    [
+        first_centre(lo[0]),
+        first_centre(lo[1]),
+        last_centre(hi[0]),
+        last_centre(hi[1]),
+    ]
 }
 
 /// Direction of the fan edge from the thick vertex towards vertex `v` (see

@@ -239,6 +239,13 @@ fn check_exact_ortho(p: [DVec3; 4], s: [f64; 4]) -> u8 {
     let th = classify(&v, false, 1.0);
     let c = th.entry();
     assert_ne!(c.class, CLASS_IMPOSSIBLE);
+    // The fast path's classification gives the same entry and the same bits.
+    let (case, ends) = classify_ortho(&v.map(|v| v.q), &v.map(|v| v.z), &p, &s, 1.0);
+    assert_eq!(case, th.case, "{p:?}");
+    if c.drawn() {
+        let want = [th.sf, th.sb, th.l];
+        assert_eq!(ends.map(f64::to_bits), want.map(f64::to_bits), "{p:?}");
+    }
     let flat = glam::DMat3::from_cols(p[1] - p[0], p[2] - p[0], p[3] - p[0])
         .determinant()
         .abs()

@@ -9,7 +9,9 @@ use super::fast::FastRec;
 use super::{Prepared, Scratch, TILE};
 use crate::camera::{Camera, Projection};
 use crate::mesh::Mesh;
-use crate::pt::{classify, snap, FanGeometry, ProjVertex, Thick, TABLE};
+use crate::pt::{
+    classify, classify_ortho, pixel_box, snap, FanGeometry, ProjVertex, Thick, TABLE,
+};
 
 /// A projected vertex: snapped pixel coordinates and depth along the view axis.
 #[derive(Clone, Copy, Default)]
@@ -44,6 +46,21 @@ pub(super) fn project(st: &Prepared, mesh: &Mesh, camera: &Camera, fast: bool, s
         })
         .collect_into_vec(&mut sc.verts);
     let verts = &sc.verts;
+    // The tile range of a drawn tet's pixel box (empty when no centre is inside the image).
+    let tiles_of = |b: [i64; 4]| {
+        let (i0, j0) = (b[0].max(0), b[1].max(0));
+        let (i1, j1) = (b[2].min(w as i64 - 1), b[3].min(h as i64 - 1));
+        if i0 > i1 || j0 > j1 {
+            return NO_TILES;
+        }
+        let t = TILE as i64;
+        [
+            (i0 / t) as u16,
+            (j0 / t) as u16,
+            (i1 / t) as u16,
+            (j1 / t) as u16,
+        ]
+    };
     let classify_tet = |t: &[u32; 4]| {
         let v: [ProjVertex; 4] = std::array::from_fn(|k| {
             let i = t[k] as usize;
@@ -58,19 +75,7 @@ pub(super) fn project(st: &Prepared, mesh: &Mesh, camera: &Camera, fast: bool, s
         let thick = classify(&v, persp, st.inv_l);
         let mut tiles = NO_TILES;
         if TABLE[thick.case as usize].drawn() {
-            let g = FanGeometry::new(v.map(|v| v.q), &thick);
-            let b = g.pixel_bounds();
-            let (i0, j0) = (b[0].max(0), b[1].max(0));
-            let (i1, j1) = (b[2].min(w as i64 - 1), b[3].min(h as i64 - 1));
-            if i0 <= i1 && j0 <= j1 {
-                let t = TILE as i64;
-                tiles = [
-                    (i0 / t) as u16,
-                    (j0 / t) as u16,
-                    (i1 / t) as u16,
-                    (j1 / t) as u16,
-                ];
-            }
+            tiles = tiles_of(FanGeometry::new(v.map(|v| v.q), &thick).pixel_bounds());
         }
         (thick, tiles)
     };
@@ -83,15 +88,29 @@ pub(super) fn project(st: &Prepared, mesh: &Mesh, camera: &Camera, fast: bool, s
             .par_iter()
             .zip(fr.par_iter_mut().zip(rects.par_iter_mut()))
             .for_each(|(t, (f, r))| {
-                let (th, tiles) = classify_tet(t);
-                *r = tiles;
+                // The fast path is orthographic: `classify_ortho`, which computes only what
+                // the record keeps, from the vertices' values read once.
+                let vp = t.map(|v| verts[v as usize]);
+                let q = vp.map(|v| [v.q[0] as i64, v.q[1] as i64]);
+                let p = t.map(|v| {
+                    let p = st.pos[v as usize];
+                    DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
+                });
+                let s = t.map(|v| st.s[v as usize]);
+                let (case, [sf, sb, l]) =
+                    classify_ortho(&q, &vp.map(|v| v.z), &p, &s.map(f64::from), st.inv_l);
+                *r = if TABLE[case as usize].drawn() {
+                    tiles_of(pixel_box(&q))
+                } else {
+                    NO_TILES
+                };
                 *f = FastRec {
-                    q: t.map(|v| verts[v as usize].q),
-                    s: t.map(|v| st.s[v as usize]),
-                    sf: th.sf as f32,
-                    sb: th.sb as f32,
-                    l: th.l as f32,
-                    case: th.case,
+                    q: vp.map(|v| v.q),
+                    s,
+                    sf: sf as f32,
+                    sb: sb as f32,
+                    l: l as f32,
+                    case,
                 };
             });
     } else {

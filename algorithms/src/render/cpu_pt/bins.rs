@@ -33,13 +33,23 @@ impl Bins {
         heaviest_first((0..ntiles).collect(), |k, _| self.tile(k).len() as u64, f)
     }
 
-    /// Bins `order` by the tile ranges `rects` (per tet) of a `ntx`-wide grid of `ntiles`:
-    /// chunks of the order counted in parallel, offsets by a prefix sum over (tile, chunk), then
-    /// each chunk writes its own disjoint ranges.
-    pub(super) fn build(&mut self, order: &[u32], rects: &[TileRect], ntx: usize, ntiles: usize) {
-        let nchunks = (rayon::current_num_threads().max(1) * 4).min(order.len().max(1));
-        let chunk = order.len().div_ceil(nchunks).max(1);
-        let chunks: Vec<&[u32]> = order.chunks(chunk).collect();
+    /// Bins the tets of `order` by their tile ranges, `rects[t]` for tet `t` (with `None`, the
+    /// ids are `0..rects.len()`: records already in the order): chunks of the order counted in
+    /// parallel, offsets by a prefix sum over (tile, chunk), then each chunk writes its own
+    /// disjoint ranges. A tile's items are the ids, in the order.
+    pub(super) fn build(
+        &mut self,
+        order: Option<&[u32]>,
+        rects: &[TileRect],
+        ntx: usize,
+        ntiles: usize,
+    ) {
+        let n = order.map_or(rects.len(), |o| o.len());
+        let id = |i: usize| order.map_or(i as u32, |o| o[i]);
+        let nchunks = (rayon::current_num_threads().max(1) * 4).min(n.max(1));
+        let chunk = n.div_ceil(nchunks).max(1);
+        let chunks: Vec<std::ops::Range<usize>> =
+            (0..n).step_by(chunk).map(|a| a..(a + chunk).min(n)).collect();
         self.offsets.resize_with(chunks.len(), Vec::new);
         self.offsets.truncate(chunks.len());
         self.offsets
@@ -48,8 +58,8 @@ impl Bins {
             .for_each(|(cnt, ids)| {
                 cnt.clear();
                 cnt.resize(ntiles, 0);
-                for &t in ids.iter() {
-                    let r = rects[t as usize];
+                for i in ids.clone() {
+                    let r = rects[id(i) as usize];
                     for ty in r[1]..=r[3] {
                         let row = ty as usize * ntx;
                         for tx in r[0]..=r[2] {
@@ -78,7 +88,8 @@ impl Bins {
             .zip(&chunks)
             .for_each(|(off, ids)| {
                 let out = &out;
-                for &t in ids.iter() {
+                for i in ids.clone() {
+                    let t = id(i);
                     let r = rects[t as usize];
                     for ty in r[1]..=r[3] {
                         let row = ty as usize * ntx;

@@ -25,7 +25,7 @@
 //! dispatch; x86-64-v3 where present), with a scalar fallback.
 
 use super::queue::{Lanes, Queue};
-use super::TILE;
+use super::{prefetch, TILE};
 use crate::optics_f32::{FastIntegrator, TfLine};
 use crate::pt::{fan_bits, wedge, TetRaster, MAX_FAN, TABLE};
 
@@ -322,15 +322,3 @@ fn per_pixel(
 /// How many tets ahead `draw_tile` prefetches.
 const PREFETCH: usize = 8;
 
-/// A hint to bring `r`'s cache line in (a no-op where there is no such instruction).
-#[inline(always)]
-fn prefetch(r: &FastRec) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: a prefetch has no architectural effect (SSE is baseline on x86-64).
-    unsafe {
-        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        _mm_prefetch::<_MM_HINT_T0>((r as *const FastRec).cast());
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = r;
-}

@@ -6,12 +6,15 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::fast::FastRec;
-use super::{Prepared, Scratch, TILE};
+use super::{prefetch, Prepared, Scratch, TILE};
 use crate::camera::{Camera, Projection};
 use crate::mesh::Mesh;
 use crate::pt::{
     classify, classify_ortho, pixel_box, snap, FanGeometry, ProjVertex, Thick, TABLE,
 };
+
+/// Tets a task of the fast path's project stage takes.
+const CHUNK: usize = 4096;
 
 /// A projected vertex: snapped pixel coordinates and depth along the view axis.
 #[derive(Clone, Copy, Default)]
@@ -30,9 +33,17 @@ pub(super) struct TetProj {
 pub(super) type TileRect = [u16; 4];
 pub(super) const NO_TILES: TileRect = [1, 1, 0, 0];
 
-/// Projects and classifies `mesh` for `camera` into `sc` (`verts`, `rects`, and `fast` when
-/// `fast`, else `tets`).
-pub(super) fn project(st: &Prepared, mesh: &Mesh, camera: &Camera, fast: bool, sc: &mut Scratch) {
+/// Projects and classifies `mesh` for `camera` into `sc`: `verts`, and either (`order`: the
+/// fast path) a record and a tile range per place of the visibility order (`fast[i]` and
+/// `rects[i]` for tet `order[i]`), or every tet's classification and tile range in mesh order
+/// (`tets`, `rects`).
+pub(super) fn project(
+    st: &Prepared,
+    mesh: &Mesh,
+    camera: &Camera,
+    order: Option<&[u32]>,
+    sc: &mut Scratch,
+) {
     let (w, h) = (camera.width, camera.height);
     let persp = camera.projection == Projection::Persp;
     st.pos
@@ -79,39 +90,55 @@ pub(super) fn project(st: &Prepared, mesh: &Mesh, camera: &Camera, fast: bool, s
         }
         (thick, tiles)
     };
-    if fast {
+    if let Some(order) = order {
         sc.tets = Vec::new();
-        sc.fast.resize(mesh.num_tets(), FastRec::default());
-        sc.rects.resize(mesh.num_tets(), NO_TILES);
-        let (fr, rects) = (&mut sc.fast, &mut sc.rects);
-        mesh.tets()
-            .par_iter()
-            .zip(fr.par_iter_mut().zip(rects.par_iter_mut()))
-            .for_each(|(t, (f, r))| {
-                // The fast path is orthographic: `classify_ortho`, which computes only what
-                // the record keeps, from the vertices' values read once.
-                let vp = t.map(|v| verts[v as usize]);
-                let q = vp.map(|v| [v.q[0] as i64, v.q[1] as i64]);
-                let p = t.map(|v| {
-                    let p = st.pos[v as usize];
-                    DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
-                });
-                let s = t.map(|v| st.s[v as usize]);
-                let (case, [sf, sb, l]) =
-                    classify_ortho(&q, &vp.map(|v| v.z), &p, &s.map(f64::from), st.inv_l);
-                *r = if TABLE[case as usize].drawn() {
-                    tiles_of(pixel_box(&q))
-                } else {
-                    NO_TILES
-                };
-                *f = FastRec {
-                    q: vp.map(|v| v.q),
-                    s,
-                    sf: sf as f32,
-                    sb: sb as f32,
-                    l: l as f32,
-                    case,
-                };
+        sc.fast.resize(order.len(), FastRec::default());
+        sc.rects.resize(order.len(), NO_TILES);
+        let (fr, rects, tets) = (&mut sc.fast, &mut sc.rects, mesh.tets());
+        // In the visibility order the tets and their vertices are read at random: each chunk
+        // asks for the tet `AHEAD` places ahead, and for the vertices of the one half as far
+        // ahead (whose tet was asked for then).
+        const AHEAD: usize = 16;
+        order
+            .par_chunks(CHUNK)
+            .zip(fr.par_chunks_mut(CHUNK).zip(rects.par_chunks_mut(CHUNK)))
+            .for_each(|(ids, (fr, rects))| {
+                for (n, (&t, (f, r))) in ids.iter().zip(fr.iter_mut().zip(rects)).enumerate() {
+                    if let Some(&a) = ids.get(n + AHEAD) {
+                        prefetch(&tets[a as usize]);
+                    }
+                    if let Some(&a) = ids.get(n + AHEAD / 2) {
+                        for &v in &tets[a as usize] {
+                            prefetch(&verts[v as usize]);
+                            prefetch(&st.pos[v as usize]);
+                        }
+                    }
+                    let t = &tets[t as usize];
+                    // The fast path is orthographic: `classify_ortho`, which computes only
+                    // what the record keeps, from the vertices' values read once.
+                    let vp = t.map(|v| verts[v as usize]);
+                    let q = vp.map(|v| [v.q[0] as i64, v.q[1] as i64]);
+                    let p = t.map(|v| {
+                        let p = st.pos[v as usize];
+                        DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
+                    });
+                    let s = t.map(|v| st.s[v as usize]);
+                    let (case, [sf, sb, l]) =
+                        classify_ortho(&q, &vp.map(|v| v.z), &p, &s.map(f64::from), st.inv_l);
+                    *r = if TABLE[case as usize].drawn() {
+                        tiles_of(pixel_box(&q))
+                    } else {
+                        NO_TILES
+                    };
+                    *f = FastRec {
+                        q: vp.map(|v| v.q),
+                        s,
+                        sf: sf as f32,
+                        sb: sb as f32,
+                        l: l as f32,
+                        case,
+                    };
+                }
             });
     } else {
         sc.fast = Vec::new();

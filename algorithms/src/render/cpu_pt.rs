@@ -152,19 +152,6 @@ impl Scratch {
 }
 
 
-/// A hint to bring `r`'s cache line in (a no-op where there is no such instruction).
-#[inline(always)]
-fn prefetch<T>(r: &T) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: a prefetch has no architectural effect (SSE is baseline on x86-64).
-    unsafe {
-        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        _mm_prefetch::<_MM_HINT_T0>((r as *const T).cast());
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = r;
-}
-
 impl CpuPt {
     /// Reports itself under a variant's registry name.
     pub fn named(mut self, name: &'static str) -> CpuPt {

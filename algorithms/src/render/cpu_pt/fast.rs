@@ -5,8 +5,8 @@
 //! perspective and the f64 integrators, and which `cpu_pt`'s tests compare this one with):
 //! - **one record per tet, one cache line** ([`FastRec`], 64 B): the snapped vertices, their
 //!   transfer-function coordinates and the thick vertex's `s_f`, `s_b`, `l`, written by the
-//!   project stage in mesh order, so that drawing a tet in visibility order is one random
-//!   access instead of six (tet, record, four vertices);
+//!   project stage at the tet's place in the visibility order, so that drawing a tet is one
+//!   access at a growing address instead of six at random (tet, record, four vertices);
 //! - **the whole tet at once** ([`TetRaster`]): one set of exact integer edge functions per
 //!   tet (silhouette edges and the fan edges from the thick vertex, each shared by the two fan
 //!   triangles it separates) and the exact span of each silhouette row;
@@ -25,7 +25,8 @@
 //! dispatch; x86-64-v3 where present), with a scalar fallback.
 
 use super::queue::{Lanes, Queue};
-use super::{prefetch, TILE};
+use super::TILE;
+use crate::render::prefetch;
 use crate::optics_f32::{FastIntegrator, TfLine};
 use crate::pt::{fan_bits, wedge, TetRaster, MAX_FAN, TABLE};
 
@@ -104,7 +105,8 @@ impl DrawTile<'_> {
         let (x0, y0) = (clip[0], clip[1]);
         let mut qu = Queue::new(integ);
         for (n, &t) in items.iter().enumerate() {
-            // The records are read in visibility order, at random: ask for one a few tets ahead.
+            // A tile's records are read at growing but sparse addresses, which the hardware's
+            // prefetcher does not follow (1.16× the draw without this): ask a few tets ahead.
             if let Some(&ahead) = items.get(n + PREFETCH) {
                 prefetch(&recs[ahead as usize]);
             }

@@ -1,12 +1,13 @@
 //! `cpu-pt`'s project stage: every vertex to snapped pixel coordinates and depth, every tet
 //! classified by the ternary truth table of [`crate::pt`] and given its tile range; for the fast
-//! path, the tet's [`FastRec`] written in mesh order.
+//! path, the tet's [`FastRec`] written at its place in the visibility order.
 
 use glam::DVec3;
 use rayon::prelude::*;
 
 use super::fast::FastRec;
-use super::{prefetch, Prepared, Scratch, TILE};
+use super::{Prepared, Scratch, TILE};
+use crate::render::prefetch;
 use crate::camera::{Camera, Projection};
 use crate::mesh::Mesh;
 use crate::pt::{

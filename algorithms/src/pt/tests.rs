@@ -493,6 +493,25 @@ fn span_rasteriser_matches_per_pixel_rasteriser() {
     assert!(total > 30_000, "{total}");
 }
 
+/// Four snapped points of kind `mode`: 0 random in 40×40 pixels, 1 near pixel centres of a
+/// 12×12 block, 2 and 3 on coarse lattices (shared coordinates, collinear triples: classes 3
+/// and 4), 4 random over thousands of pixels.
+pub(crate) fn fan_points(rng: &mut Rng, mode: usize) -> [[i64; 2]; 4] {
+    std::array::from_fn(|_| match mode {
+        0 => [rng.int(40 * SUBPIXEL as u64), rng.int(40 * SUBPIXEL as u64)],
+        1 => [
+            pixel_centre(rng.int(12)) + rng.int(3) - 1,
+            pixel_centre(rng.int(12)),
+        ],
+        2 => [rng.int(7) * SUBPIXEL / 2, rng.int(7) * SUBPIXEL / 2],
+        3 => [rng.int(5) * SUBPIXEL, rng.int(5) * SUBPIXEL],
+        _ => [
+            rng.int(3000 * SUBPIXEL as u64) - 1000 * SUBPIXEL,
+            rng.int(3000 * SUBPIXEL as u64) - 1000 * SUBPIXEL,
+        ],
+    })
+}
+
 /// The whole-tet rasteriser covers exactly the centres the per-triangle one does, in the same
 /// triangles, with the same barycentric weights (to rounding), on lattice, random, degenerate
 /// (shared coordinates, collinear triples: classes 3 and 4) and clipped fans.
@@ -502,24 +521,8 @@ fn tet_rasteriser_matches_per_pixel_rasteriser() {
     let mut total = 0;
     let mut classes = [0usize; 6];
     for it in 0..2500 {
-        let mut q = [[0i64; 2]; 4];
-        for v in q.iter_mut() {
-            // Large fans (thousands of pixels) in one case of 25: they dominate the time.
-            let mode = if it % 25 == 24 { 4 } else { it % 4 };
-            *v = match mode {
-                0 => [rng.int(40 * SUBPIXEL as u64), rng.int(40 * SUBPIXEL as u64)],
-                1 => [
-                    pixel_centre(rng.int(12)) + rng.int(3) - 1,
-                    pixel_centre(rng.int(12)),
-                ],
-                2 => [rng.int(7) * SUBPIXEL / 2, rng.int(7) * SUBPIXEL / 2],
-                3 => [rng.int(5) * SUBPIXEL, rng.int(5) * SUBPIXEL],
-                _ => [
-                    rng.int(3000 * SUBPIXEL as u64) - 1000 * SUBPIXEL,
-                    rng.int(3000 * SUBPIXEL as u64) - 1000 * SUBPIXEL,
-                ],
-            };
-        }
+        // Large fans (thousands of pixels) in one case of 25: they dominate the time.
+        let q = fan_points(&mut rng, if it % 25 == 24 { 4 } else { it % 4 });
         let v = q.map(|q| ProjVertex {
             q,
             ..Default::default()

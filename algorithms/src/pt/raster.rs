@@ -144,6 +144,15 @@ impl Edge {
     pub(super) fn at(&self, p: [i64; 2]) -> i64 {
         self.d[0] * (p[1] - self.b[1]) - self.d[1] * (p[0] - self.b[0])
     }
+    /// The biased value at centre `p` and the steps per column and per row.
+    #[inline(always)]
+    pub(super) fn stepped(&self, p: [i64; 2]) -> [i64; 3] {
+        [
+            self.at(p) + self.bias,
+            -self.d[1] * SUBPIXEL,
+            self.d[0] * SUBPIXEL,
+        ]
+    }
 }
 
 /// Calls `f` for every pixel centre covered by the fan within the inclusive pixel rectangle

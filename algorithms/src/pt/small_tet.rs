@@ -11,9 +11,9 @@
 //! `¬β_{k+1}` is its third test). The same centres, triangles and weights as `raster_fan`
 //! (test: `small_tet_matches_per_pixel_rasteriser`).
 
-use super::raster::{dir_from_thick, Edge};
-use super::tet_raster::{fan_bits, wedge, MAX_FAN};
-use super::{pixel_box, pixel_centre, Case, Fragment, SUBPIXEL};
+use super::raster::Edge;
+use super::tet_raster::{fan_bits, fan_dirs, normalisers, silhouette_edge, wedge, MAX_FAN};
+use super::{pixel_box, pixel_centre, Case, Fragment};
 
 /// How a tet fits [`SmallTet::set_up`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -70,13 +70,7 @@ impl SmallTet {
             return Fit::Large;
         }
         let n = c.ntri as usize;
-        let dirs: [[i64; 2]; MAX_FAN] = std::array::from_fn(|k| {
-            if k <= n {
-                dir_from_thick(c, q, c.fan[k] as usize)
-            } else {
-                [0, 0]
-            }
-        });
+        let dirs = fan_dirs(c, q);
         let p = [pixel_centre(ia), pixel_centre(ja)];
         let t = self;
         (t.ia, t.ja, t.w, t.h, t.valid) = (ia, ja, w, h, (1 << n) - 1);
@@ -87,20 +81,12 @@ impl SmallTet {
         t.gsr = [0; MAX_FAN];
         for k in 0..=n {
             let e = Edge::new(q[c.fan[k] as usize], dirs[k]);
-            t.g[k] = e.at(p) + e.bias;
-            t.gst[k] = -e.d[1] * SUBPIXEL;
-            t.gsr[k] = e.d[0] * SUBPIXEL;
+            [t.g[k], t.gst[k], t.gsr[k]] = e.stepped(p);
             t.gbias[k] = e.bias;
         }
         for tri in 0..n {
-            let (x, y) = (q[c.fan[tri] as usize], q[c.fan[tri + 1] as usize]);
-            let e = Edge::new(x, [y[0] - x[0], y[1] - x[1]]);
-            t.sil[tri] = e.at(p) + e.bias;
-            t.sst[tri] = -e.d[1] * SUBPIXEL;
-            t.ssr[tri] = e.d[0] * SUBPIXEL;
-            let (dx, dy) = (dirs[tri], dirs[tri + 1]);
-            let n_y = Edge::new(x, dx).at(y);
-            let n_x = Edge::new(y, [-dy[0], -dy[1]]).at(x);
+            [t.sil[tri], t.sst[tri], t.ssr[tri]] = silhouette_edge(c, q, tri).stepped(p);
+            let (n_x, n_y) = normalisers(c, q, &dirs, tri);
             if n_y <= 0 || n_x <= 0 {
                 return Fit::Large;
             }
@@ -148,7 +134,7 @@ impl SmallTet {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::pt::tests::{fan_points, Rng};
+    use crate::pt::tests::{assert_same_fragments, fan_points, Rng};
     use crate::pt::{classify, raster_fan, FanGeometry, ProjVertex};
 
     /// The same centres, triangles and weights as the per-triangle rasteriser, on the fans of
@@ -175,7 +161,6 @@ mod tests {
             for clip in [[0, 0, 40, 40], [x, y, x + rng.int(3), y + rng.int(3)]] {
                 let mut want = Vec::new();
                 raster_fan(&g, clip, |f| want.push(f));
-                want.sort_by_key(|f| (f.j, f.i));
                 let mut got = Vec::new();
                 let mut t = SmallTet::default();
                 match t.set_up(g.case, &q, clip, 6) {
@@ -190,14 +175,7 @@ mod tests {
                         t.fragments(|f| got.push(f));
                     }
                 }
-                assert_eq!(got.len(), want.len(), "{q:?} clip {clip:?}");
-                for (a, b) in got.iter().zip(&want) {
-                    assert_eq!((a.i, a.j, a.tri), (b.i, b.j, b.tri), "{q:?} clip {clip:?}");
-                    assert!(
-                        (a.lx - b.lx).abs() < 1e-9 && (a.ly - b.ly).abs() < 1e-9,
-                        "{a:?} {b:?}"
-                    );
-                }
+                assert_same_fragments(want, &got, &(q, clip));
                 frags += got.len();
             }
         }

@@ -493,6 +493,24 @@ fn span_rasteriser_matches_per_pixel_rasteriser() {
     assert!(total > 30_000, "{total}");
 }
 
+/// `got` (in row order) holds the centres of `want` (in any order), in the same triangles,
+/// with the same weights to 1e-9; `what` names the case.
+pub(crate) fn assert_same_fragments(
+    mut want: Vec<Fragment>,
+    got: &[Fragment],
+    what: &dyn std::fmt::Debug,
+) {
+    want.sort_by_key(|f| (f.j, f.i));
+    assert_eq!(got.len(), want.len(), "{what:?}");
+    for (a, b) in got.iter().zip(&want) {
+        assert_eq!((a.i, a.j, a.tri), (b.i, b.j, b.tri), "{what:?}");
+        assert!(
+            (a.lx - b.lx).abs() < 1e-9 && (a.ly - b.ly).abs() < 1e-9,
+            "{a:?} {b:?}"
+        );
+    }
+}
+
 /// Four snapped points of kind `mode`: 0 random in 40×40 pixels, 1 near pixel centres of a
 /// 12×12 block, 2 and 3 on coarse lattices (shared coordinates, collinear triples: classes 3
 /// and 4), 4 random over thousands of pixels.
@@ -543,16 +561,7 @@ fn tet_rasteriser_matches_per_pixel_rasteriser() {
             if let Some(r) = TetRaster::new(g.case, &q, clip) {
                 r.fragments(|f| got.push(f));
             }
-            let key = |f: &Fragment| (f.j, f.i);
-            want.sort_by_key(key);
-            assert_eq!(got.len(), want.len(), "{q:?} clip {clip:?}");
-            for (a, b) in got.iter().zip(&want) {
-                assert_eq!((a.i, a.j, a.tri), (b.i, b.j, b.tri), "{q:?} clip {clip:?}");
-                assert!(
-                    (a.lx - b.lx).abs() < 1e-9 && (a.ly - b.ly).abs() < 1e-9,
-                    "{a:?} {b:?}"
-                );
-            }
+            assert_same_fragments(want, &got, &(q, clip));
             total += got.len();
         }
     }

@@ -30,7 +30,7 @@
 //! [`raster_fan`]: super::raster_fan
 
 use super::raster::{dir_from_thick, first_centre, floor_i64, last_centre, Edge};
-use super::{pixel_centre, Case, Fragment, SUBPIXEL};
+use super::{pixel_centre, Case, Fragment};
 
 /// Fan edges at most (class 2: four triangles, five fan edges).
 pub const MAX_FAN: usize = 5;
@@ -100,7 +100,7 @@ impl SilEdge {
 /// The first `k` with `h + k·st > 0` (`st > 0`, `inv = 1/st`): `⌊−h/st⌋ + 1`, from an f64
 /// estimate and one exact test each way. The estimate is within 1: snapped coordinates are at
 /// most 2³⁰ ([`MAX_PIXEL_COORD`](super::MAX_PIXEL_COORD)), so an edge value, two products of
-/// factors below 2³¹, has |h| < 2⁶³, and st is a nonzero multiple of [`SUBPIXEL`] (2¹²), so
+/// factors below 2³¹, has |h| < 2⁶³, and st is a nonzero multiple of [`SUBPIXEL`](super::SUBPIXEL) (2¹²), so
 /// |h/st| < 2⁵¹ and the three roundings (h, 1/st, the product) move it by less than
 /// 2⁵¹·3·2⁻⁵³ < 1. The products in the tests are near −h, so they do not overflow (test:
 /// `tet_rasteriser_matches_per_pixel_rasteriser_at_extreme_coordinates`, with overflow checks).
@@ -154,6 +154,42 @@ pub struct TetRow {
     pub i0: i64,
     pub i1: i64,
     pub g: [i64; MAX_FAN],
+}
+
+/// The direction of each fan edge k ≤ ntri of table entry `c` (from the thick vertex; entries
+/// past ntri are 0).
+#[inline(always)]
+pub(super) fn fan_dirs(c: &Case, q: &[[i64; 2]; 4]) -> [[i64; 2]; MAX_FAN] {
+    std::array::from_fn(|k| {
+        if k <= c.ntri as usize {
+            dir_from_thick(c, q, c.fan[k] as usize)
+        } else {
+            [0, 0]
+        }
+    })
+}
+
+/// The silhouette edge of fan triangle `tri`, fan[tri] → fan[tri + 1].
+#[inline(always)]
+pub(super) fn silhouette_edge(c: &Case, q: &[[i64; 2]; 4], tri: usize) -> Edge {
+    let (x, y) = (q[c.fan[tri] as usize], q[c.fan[tri + 1] as usize]);
+    Edge::new(x, [y[0] - x[0], y[1] - x[1]])
+}
+
+/// Fan triangle `tri`'s barycentric normalisers `(n_x, n_y)`, [`raster_fan`]'s e2(x) and e0(y)
+/// (`dirs` from [`fan_dirs`]); the triangle is valid where both are positive.
+///
+/// [`raster_fan`]: super::raster_fan
+#[inline(always)]
+pub(super) fn normalisers(
+    c: &Case,
+    q: &[[i64; 2]; 4],
+    dirs: &[[i64; 2]; MAX_FAN],
+    tri: usize,
+) -> (i64, i64) {
+    let (x, y) = (q[c.fan[tri] as usize], q[c.fan[tri + 1] as usize]);
+    let (dx, dy) = (dirs[tri], dirs[tri + 1]);
+    (Edge::new(y, [-dy[0], -dy[1]]).at(x), Edge::new(x, dx).at(y))
 }
 
 /// The bits `β_k = [g_k > 0]` of a pixel's biased fan edges.
@@ -216,28 +252,16 @@ impl TetRaster {
         };
         // Each fan edge's direction once (the fan edges, the normalisers and the open fans'
         // ends read them).
-        let dirs: [[i64; 2]; MAX_FAN] = std::array::from_fn(|k| {
-            if k <= n {
-                dir_from_thick(c, q, c.fan[k] as usize)
-            } else {
-                [0, 0]
-            }
-        });
+        let dirs = fan_dirs(c, q);
         let dir = |k: usize| dirs[k];
         for k in 0..=n {
             let e = Edge::new(q[c.fan[k] as usize], dir(k));
-            r.g[k] = e.at(p) + e.bias;
-            r.gst[k] = -e.d[1] * SUBPIXEL;
-            r.gsr[k] = e.d[0] * SUBPIXEL;
+            [r.g[k], r.gst[k], r.gsr[k]] = e.stepped(p);
             r.gbias[k] = e.bias;
         }
         for tri in 0..n {
-            let (x, y) = (q[c.fan[tri] as usize], q[c.fan[tri + 1] as usize]);
-            r.add_silhouette(Edge::new(x, [y[0] - x[0], y[1] - x[1]]), p);
-            // The normalisers of raster_fan: e0(y) and e2(x).
-            let (dx, dy) = (dir(tri), dir(tri + 1));
-            let n_y = Edge::new(x, dx).at(y);
-            let n_x = Edge::new(y, [-dy[0], -dy[1]]).at(x);
+            r.add_silhouette(silhouette_edge(c, q, tri), p);
+            let (n_x, n_y) = normalisers(c, q, &dirs, tri);
             if n_y > 0 && n_x > 0 {
                 r.valid |= 1 << tri;
                 r.inv_x[tri] = 1.0 / n_x as f64;
@@ -272,7 +296,7 @@ impl TetRaster {
     /// Files silhouette edge `e` (biased value at centre `p`) by the side it bounds rows from.
     #[inline(always)]
     fn add_silhouette(&mut self, e: Edge, p: [i64; 2]) {
-        let (h, st, sr) = (e.at(p) + e.bias, -e.d[1] * SUBPIXEL, e.d[0] * SUBPIXEL);
+        let [h, st, sr] = e.stepped(p);
         if st != 0 {
             // From above (st < 0): h + k·st = h + (−k)·(−st). A select, as the side is a coin
             // toss per edge.

@@ -37,7 +37,9 @@ mod small_tet;
 mod tet_raster;
 
 pub use faces::{fan_segment, FaceSegment, FaceVertex};
-pub use raster::{pixel_box, raster_fan, raster_fan_rows, FanGeometry, Fragment, Row};
+pub use raster::{
+    pixel_box, pixel_box_in, raster_fan, raster_fan_rows, FanGeometry, Fragment, Row,
+};
 pub use small_tet::{Fit, SmallTet};
 pub use tet_raster::{fan_bits, wedge, TetRaster, TetRow, MAX_FAN};
 

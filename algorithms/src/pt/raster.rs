@@ -51,7 +51,7 @@ impl FanGeometry {
 
 /// Pixel bounding box (inclusive: first and last centre columns and rows) of four snapped
 /// points; empty (first > last) where no centre lies inside their box.
-#[inline]
+#[inline(always)]
 pub fn pixel_box(q: &[[i64; 2]; 4]) -> [i64; 4] {
     let (mut lo, mut hi) = ([i64::MAX; 2], [i64::MIN; 2]);
     for p in q {
@@ -66,6 +66,20 @@ pub fn pixel_box(q: &[[i64; 2]; 4]) -> [i64; 4] {
         last_centre(hi[0]),
         last_centre(hi[1]),
     ]
+}
+
+/// [`pixel_box`] within the inclusive pixel rectangle `clip = [i0, j0, i1, j1]`; `None` where no
+/// centre of the box is inside it.
+#[inline(always)]
+pub fn pixel_box_in(q: &[[i64; 2]; 4], clip: [i64; 4]) -> Option<[i64; 4]> {
+    let b = pixel_box(q);
+    let b = [
+        b[0].max(clip[0]),
+        b[1].max(clip[1]),
+        b[2].min(clip[2]),
+        b[3].min(clip[3]),
+    ];
+    (b[0] <= b[2] && b[1] <= b[3]).then_some(b)
 }
 
 /// Direction of the fan edge from the thick vertex towards vertex `v` (see

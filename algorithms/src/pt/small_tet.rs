@@ -13,7 +13,7 @@
 
 use super::raster::Edge;
 use super::tet_raster::{fan_bits, fan_dirs, normalisers, silhouette_edge, wedge, MAX_FAN};
-use super::{pixel_box, pixel_centre, Case, Fragment};
+use super::{pixel_box_in, pixel_centre, Case, Fragment};
 
 /// How a tet fits [`SmallTet::set_up`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -59,12 +59,9 @@ impl SmallTet {
         if !c.drawn() {
             return Fit::Empty;
         }
-        let b = pixel_box(q);
-        let (ia, ja) = (b[0].max(clip[0]), b[1].max(clip[1]));
-        let (ib, jb) = (b[2].min(clip[2]), b[3].min(clip[3]));
-        if ia > ib || ja > jb {
+        let Some([ia, ja, ib, jb]) = pixel_box_in(q, clip) else {
             return Fit::Empty;
-        }
+        };
         let (w, h) = (ib - ia + 1, jb - ja + 1);
         if w * h > max_centres {
             return Fit::Large;

@@ -29,8 +29,8 @@
 //!
 //! [`raster_fan`]: super::raster_fan
 
-use super::raster::{dir_from_thick, first_centre, floor_i64, last_centre, Edge};
-use super::{pixel_centre, Case, Fragment};
+use super::raster::{dir_from_thick, floor_i64, Edge};
+use super::{pixel_box_in, pixel_centre, Case, Fragment};
 
 /// Fan edges at most (class 2: four triangles, five fan edges).
 pub const MAX_FAN: usize = 5;
@@ -218,20 +218,7 @@ impl TetRaster {
             return None;
         }
         let n = c.ntri as usize;
-        let (mut lo, mut hi) = ([i64::MAX; 2], [i64::MIN; 2]);
-        for p in q {
-            for a in 0..2 {
-                lo[a] = lo[a].min(p[a]);
-                hi[a] = hi[a].max(p[a]);
-            }
-        }
-        let ia = first_centre(lo[0]).max(clip[0]);
-        let j0 = first_centre(lo[1]).max(clip[1]);
-        let ib = last_centre(hi[0]).min(clip[2]);
-        let j1 = last_centre(hi[1]).min(clip[3]);
-        if ia > ib || j0 > j1 {
-            return None;
-        }
+        let [ia, j0, ib, j1] = pixel_box_in(q, clip)?;
         let p = [pixel_centre(ia), pixel_centre(j0)];
         let mut r = TetRaster {
             ntri: n,

@@ -234,13 +234,8 @@ mod tests {
     /// the order counts).
     #[test]
     fn composite_is_the_scalar_over() {
-        let mut seed = 11u64;
-        let mut rnd = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut rng = crate::pt::tests::Rng::new(11);
+        let mut rnd = || rng.f() as f32;
         let px = (TILE * TILE) as usize;
         for n in [0, 1, 3, 4, 5, 23, BATCH] {
             let mut out = [[0.0f32; BATCH]; 4];

@@ -53,6 +53,9 @@ pub(super) struct FastRec {
 /// Renders tile (tx, ty) of a `w`×`h` image from its tets (`items`, back to front); returns the
 /// tile's RGBA rows (TILE wide) and its fragment count. Compiled for the best instruction set
 /// of the CPU (`pulp`'s run-time dispatch), so that the span kernel runs 8 lanes wide.
+// Never inlined, so that a profile (callgrind's `--toggle-collect='*draw_tile*'`) finds the
+// draw under any inlining decision of the caller.
+#[inline(never)]
 pub(super) fn draw_tile(
     recs: &[FastRec],
     items: &[u32],
@@ -239,7 +242,14 @@ fn spans<S: pulp::Simd>(
             step[p] = dx[p] as f32;
         }
     }
-    let stepv = step.map(|v| simd.splat_f32s(v));
+    // Splats in plain loops, not `array::map`: a closure does not inherit the target features of
+    // the function it sits in, and when the compiler leaves it out of line (as it did with 16
+    // codegen units after an unrelated change) every splat became a call and the draw ran 1.48×
+    // slower (docs/performance.md, fifteenth pass).
+    let mut stepv = [simd.splat_f32s(0.0); 12];
+    for (v, &s) in stepv.iter_mut().zip(&step) {
+        *v = simd.splat_f32s(s);
+    }
     // The lane offsets 0, 1, …: one whole-vector load (`partial_load` is pulp's masked-load
     // call even for a full vector).
     let iota = S::as_simd_f32s(&IOTA[..lanes]).0[0];
@@ -260,10 +270,12 @@ fn spans<S: pulp::Simd>(
                 *b = v + r * y + a * x;
             }
         }
-        let base = b64.map(|v| v as f32);
         qu.reserve(n.div_ceil(lanes) * lanes, buf);
         let p0 = ((row.j - y0) as usize * ts + (row.i0 - x0) as usize) as u16;
-        let base = base.map(|v| simd.splat_f32s(v));
+        let mut base = [simd.splat_f32s(0.0); 12];
+        for (v, &b) in base.iter_mut().zip(&b64) {
+            *v = simd.splat_f32s(b as f32);
+        }
         for c in 0..n.div_ceil(lanes) {
             let x = simd.add_f32s(iota, simd.splat_f32s((c * lanes) as f32));
             let plane = |ch: usize, k: usize| simd.mul_add_f32s(x, stepv[ch * 4 + k], base[ch * 4 + k]);

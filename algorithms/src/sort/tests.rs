@@ -4,7 +4,7 @@ use glam::DVec3;
 
 use super::bucket::slab;
 use super::centroid::farthest_first;
-use super::radix::{par_radix_sort_hi32, radix_sort_hi32};
+use super::radix::radix_sort_hi32;
 use super::*;
 use crate::camera::{fibonacci_views, Camera, Projection, View};
 use crate::io::split::{hex_corner, hex_split_pattern};
@@ -209,45 +209,6 @@ fn key_order_is_total_with_ties_and_signed_zeros() {
         .collect();
     radix_sort_hi32(&mut packed, &mut Vec::new());
     assert!(pairs.iter().zip(&packed).all(|(p, &q)| p.1 == q as u32));
-}
-
-#[test]
-fn parallel_radix_is_the_serial_radix() {
-    // Keys with many repeats (and ±0.0), so that stability decides much of the order; part
-    // counts that do not divide n, and one that leaves a part empty of some digits.
-    let mut x = 777u32;
-    let keys: Vec<f32> = (0..20_011)
-        .map(|i| {
-            x = x.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-            match i % 7 {
-                0 => 0.0,
-                1 => -0.0,
-                _ => ((x >> 12) as f32 - 524_288.0) * 0.25,
-            }
-        })
-        .collect();
-    let key = |t: usize, k: &f32| ((desc_bits(*k) as u64) << 32) | t as u64;
-    let mut serial: Vec<u64> = keys.iter().enumerate().map(|(t, k)| key(t, k)).collect();
-    radix_sort_hi32(&mut serial, &mut Vec::new());
-    for parts in [1, 2, 3, 7, 64] {
-        let (mut v, mut tmp) = (Vec::new(), Vec::new());
-        par_radix_sort_hi32(&keys, key, parts, &mut v, &mut tmp);
-        assert_eq!(v, serial, "{parts} parts");
-        // Again into the same (now sized) buffers.
-        par_radix_sort_hi32(&keys, key, parts, &mut v, &mut tmp);
-        assert_eq!(v, serial, "{parts} parts, second run");
-    }
-    // Keys all alike in their low digits (a skipped first pass) and all alike (no pass).
-    for keys in [
-        vec![3.0f32; 9000],
-        (0..9000).map(|i| (i / 3000) as f32 * 1e6).collect(),
-    ] {
-        let mut serial: Vec<u64> = keys.iter().enumerate().map(|(t, k)| key(t, k)).collect();
-        radix_sort_hi32(&mut serial, &mut Vec::new());
-        let (mut v, mut tmp) = (Vec::new(), Vec::new());
-        par_radix_sort_hi32(&keys, key, 3, &mut v, &mut tmp);
-        assert_eq!(v, serial);
-    }
 }
 
 #[test]

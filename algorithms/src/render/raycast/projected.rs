@@ -304,8 +304,9 @@ impl Prepared {
         let mut found = entry(t_min, exclude, *seed);
         if found.is_none() {
             // A ray that enters nowhere (most of them, beside a mesh) needs no frame: only the
-            // check that it crosses no face.
-            if self.bvh.any_crossing(self, tets, ctx) {
+            // check that it crosses no face, which the BVH makes where the grid cannot rule
+            // every face out (`EntryGrid::may_cross`).
+            if grid.is_none_or(|g| g.may_cross(i, j)) && self.bvh.any_crossing(self, tets, ctx) {
                 stats.missed += 1;
             }
             stats.filter_fallbacks = ctx.fallbacks.get();

@@ -359,7 +359,11 @@ impl Prepared {
                 stats.steps += 1;
                 if stats.steps as usize > self.max_steps {
                     // A ray that turns opaque on its queued segments stops before the limit.
-                    if !drain(shade, run, self.inv_l, &mut acc, &mut stats, &fr, ctx) {
+                    // (The queue's last segment is the previous step's, which `drain` counts
+                    // from.)
+                    stats.steps -= 1;
+                    if !drain(shade, run, self.inv_l, &mut acc, &mut stats) {
+                        stats.steps += 1;
                         stats.lost += 1;
                     }
                     break 'rays;
@@ -398,21 +402,15 @@ impl Prepared {
                     run.z[c][n] = v.z;
                     run.s[c][n] = v.s;
                 }
-                run.marks[n] = [
-                    stats.steps,
-                    stats.fallbacks,
-                    fr.fallbacks.get(),
-                    ctx.fallbacks.get(),
-                ];
                 run.q.n += 1;
-                if run.q.n == QUEUE && drain(shade, run, self.inv_l, &mut acc, &mut stats, &fr, ctx) {
+                if run.q.n == QUEUE && drain(shade, run, self.inv_l, &mut acc, &mut stats) {
                     break 'rays;
                 }
                 let iz = ids[k];
                 let fz = local_index(&g, iz);
                 let nb = if fz < 4 { self.next[tet][fz] } else { BOUNDARY };
                 if nb == BOUNDARY {
-                    if drain(shade, run, self.inv_l, &mut acc, &mut stats, &fr, ctx) {
+                    if drain(shade, run, self.inv_l, &mut acc, &mut stats) {
                         break 'rays;
                     }
                     t_min = run.t;
@@ -441,16 +439,14 @@ impl Prepared {
 
 /// A ray's queued crossings, before and after they are interpolated: per queued step the three
 /// weights of the exit face's vertices and their depths and scalars (lane `k` of each row, the
-/// step that queued segment `k`), the counters as they were when it was queued, and the depth
-/// `t` of the queue's first crossing (whose end, for the shader, is `q.ends[0]`).
+/// step that queued segment `k`), and the depth `t` of the queue's first crossing (whose end,
+/// for the shader, is `q.ends[0]`).
 #[derive(Clone, Copy)]
 pub(super) struct Run<E> {
     q: Queue<E>,
     wt: [[f64; QUEUE]; 3],
     z: [[f64; QUEUE]; 3],
     s: [[f64; QUEUE]; 3],
-    /// Steps, walk fallbacks and the two predicates' filter fallbacks.
-    marks: [[u64; 4]; QUEUE],
     t: f64,
     /// The instruction set [`Blend`] runs on, detected once per band.
     arch: pulp::Arch,
@@ -463,7 +459,6 @@ impl<E: Copy + Default> Default for Run<E> {
             wt: [[0.0; QUEUE]; 3],
             z: [[0.0; QUEUE]; 3],
             s: [[0.0; QUEUE]; 3],
-            marks: [[0; 4]; QUEUE],
             t: 0.0,
             arch: pulp::Arch::new(),
         }
@@ -471,9 +466,12 @@ impl<E: Copy + Default> Default for Run<E> {
 }
 
 /// Interpolates the queued crossings, shades the segments between them and composites them in
-/// order; `true` when the ray terminated on one of them, with the counters put back to what
-/// they were when that segment was queued, so that a ray counts the steps it would have counted
-/// compositing segment by segment.
+/// order; `true` when the ray terminated on one of them, with the step count put back to the
+/// step that queued that segment, so that a ray counts the steps it would have counted
+/// compositing segment by segment (the queue's last segment is the current step's: each step
+/// queues one). The fallback counters keep the predicates and faces of the few steps walked
+/// past it, which were computed (they were put back too, at 4 stores a step, 0.98× the frame
+/// without them; `docs/performance.md`, sixteenth pass).
 ///
 /// A crossing's depth and scalar are the barycentric blend of its face's vertices with the
 /// normalised weights (a third each where they sum to 0 or overflow), lane by lane; then, in
@@ -488,8 +486,6 @@ fn drain<S: Shade>(
     inv_l: f64,
     acc: &mut Segment,
     stats: &mut RayStats,
-    fr: &Frame2,
-    ctx: &RayCtx,
 ) -> bool {
     let n = run.q.n;
     if n == 0 {
@@ -524,15 +520,14 @@ fn drain<S: Shade>(
         return false;
     }
     *acc = before;
-    for (k, m) in run.marks.iter().enumerate().take(n) {
+    for k in 0..n {
         // (A step of no length queued a segment of no length: nothing to composite.)
         if run.q.l[k] > 0.0 {
             composite_under(acc, out.get(k));
             if 1.0 - acc.alpha < TERMINATE_T {
-                stats.steps = m[0];
-                stats.fallbacks = m[1];
-                fr.fallbacks.set(m[2]);
-                ctx.fallbacks.set(m[3]);
+                // Each step queued one segment, the last of them the n-th: segment k was
+                // queued by step `steps − n + k + 1`.
+                stats.steps = stats.steps - n as u64 + k as u64 + 1;
                 return true;
             }
         }

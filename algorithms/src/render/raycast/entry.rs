@@ -325,13 +325,8 @@ mod tests {
     #[test]
     fn coverage_is_the_box_test() {
         let (w, h) = (37usize, 23usize);
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut next = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut rng = crate::pt::tests::Rng::new(5);
+        let mut next = || rng.f() as f32;
         for round in 0..300 {
             let boxes: Vec<Item> = (0..1 + round % 4)
                 .map(|_| {

@@ -248,6 +248,42 @@ impl<'a> Frame2<'a> {
         self.undecided(st, ray, ia, ib, w)
     }
 
+    /// Whether the ray crosses triangle `tri` (global ids, circulation order) with all three
+    /// edge products of sign `want`, as [`Prepared::cross_face`] decides it (the same exact
+    /// signs: see [`Frame2::side`]); if so the depth and scalar of the crossing, interpolated
+    /// as the walk interpolates its exits ([`Blend`]).
+    #[inline(always)]
+    pub(super) fn cross_face(
+        &self,
+        st: &Prepared,
+        ray: &RayCtx,
+        tri: [u32; 3],
+        want: bool,
+    ) -> Option<(f64, f64)> {
+        let lv = tri.map(|v| self.local(&st.verts, v));
+        let mut w = [0.0; 3];
+        for (k, wk) in w.iter_mut().enumerate() {
+            // Weight of vertex k is the product with the opposite edge.
+            let (a, b) = ((k + 1) % 3, (k + 2) % 3);
+            let (v, ok) = self.side(st, ray, (tri[a], &lv[a]), (tri[b], &lv[b]), want);
+            if !ok {
+                return None;
+            }
+            *wk = v.abs();
+        }
+        let sum = w[0] + w[1] + w[2];
+        let r = 1.0 / sum;
+        let wn = if (sum > 0.0) & (r > 0.0) {
+            w.map(|v| v * r)
+        } else {
+            [1.0 / 3.0; 3]
+        };
+        Some((
+            wn[0] * lv[0].z + wn[1] * lv[1].z + wn[2] * lv[2].z,
+            wn[0] * lv[0].s + wn[1] * lv[1].s + wn[2] * lv[2].s,
+        ))
+    }
+
     /// [`Frame2::side`] below the bound: the exact predicate, counted.
     #[cold]
     #[inline(never)]
@@ -295,24 +331,27 @@ impl Prepared {
         let mut first = true;
         // Entries from the frame's grid (or the BVH, the first search seeded with the previous
         // ray's entry face).
+        // A ray whose pixel centre is in no boundary face's box crosses no face
+        // (`EntryGrid::may_cross`): it enters nowhere, and is no hole. Most rays beside a mesh.
+        if grid.is_some_and(|g| !g.may_cross(i, j)) {
+            return (acc, stats);
+        }
+        let fr = Frame2::new(ctx, self.max_abs, shared);
         let entry = |t_min: f64, exclude: u32, seed: u32| match grid {
-            Some(g) => g.first_entry(self, tets, ctx, i, j, t_min, exclude),
+            Some(g) => g.first_entry(self, tets, (ctx, &fr), i, j, t_min, exclude),
             None => self
                 .bvh
                 .first_entry(self, tets, front, ctx, t_min, exclude, seed),
         };
         let mut found = entry(t_min, exclude, *seed);
         if found.is_none() {
-            // A ray that enters nowhere (most of them, beside a mesh) needs no frame: only the
-            // check that it crosses no face, which the BVH makes where the grid cannot rule
-            // every face out (`EntryGrid::may_cross`).
-            if grid.is_none_or(|g| g.may_cross(i, j)) && self.bvh.any_crossing(self, tets, ctx) {
+            // A ray that enters nowhere: the check that it crosses no face.
+            if self.bvh.any_crossing(self, tets, ctx) {
                 stats.missed += 1;
             }
-            stats.filter_fallbacks = ctx.fallbacks.get();
+            stats.filter_fallbacks = ctx.fallbacks.get() + fr.fallbacks.get();
             return (acc, stats);
         }
-        let fr = Frame2::new(ctx, self.max_abs, shared);
         // Crossings wait in `run` and are interpolated, shaded and composited a queue at a time.
         // (Its rows are not cleared between rays: every entry starts with an empty queue, and
         // the lanes past it are computed and ignored.)

@@ -343,6 +343,13 @@ impl Prepared {
                 for dj in 0..rows {
                     let j = b * TILE + dj;
                     for i in i0..(i0 + TILE).min(w) {
+                        // A ray of the projected walk whose pixel centre is in no boundary
+                        // face's box crosses no face (`EntryGrid::may_cross`): it enters
+                        // nowhere and is no hole. Most rays beside a mesh.
+                        if grid.as_ref().is_some_and(|g| !g.may_cross(i, j)) {
+                            band[dj * w + i] = [0.0; 4];
+                            continue;
+                        }
                         let ray = camera.pixel_ray(i as u32, j as u32);
                         let ctx = RayCtx::new(&ray, camera, self.max_abs, dir.as_ref());
                         let (seg, s) = if projected {

@@ -331,11 +331,7 @@ impl Prepared {
         let mut first = true;
         // Entries from the frame's grid (or the BVH, the first search seeded with the previous
         // ray's entry face).
-        // A ray whose pixel centre is in no boundary face's box crosses no face
-        // (`EntryGrid::may_cross`): it enters nowhere, and is no hole. Most rays beside a mesh.
-        if grid.is_some_and(|g| !g.may_cross(i, j)) {
-            return (acc, stats);
-        }
+        // (The caller casts no ray whose pixel the grid rules out: `EntryGrid::may_cross`.)
         let fr = Frame2::new(ctx, self.max_abs, shared);
         let entry = |t_min: f64, exclude: u32, seed: u32| match grid {
             Some(g) => g.first_entry(self, tets, (ctx, &fr), i, j, t_min, exclude),

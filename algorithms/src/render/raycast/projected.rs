@@ -329,10 +329,10 @@ impl Prepared {
         let mut t_min = f64::NEG_INFINITY;
         let mut exclude = u32::MAX;
         let mut first = true;
-        // Entries from the frame's grid (or the BVH, the first search seeded with the previous
-        // ray's entry face).
         // (The caller casts no ray whose pixel the grid rules out: `EntryGrid::may_cross`.)
         let fr = Frame2::new(ctx, self.max_abs, shared);
+        // Entries from the frame's grid, tested in the frame (or the BVH, the first search
+        // seeded with the previous ray's entry face).
         let entry = |t_min: f64, exclude: u32, seed: u32| match grid {
             Some(g) => g.first_entry(self, tets, (ctx, &fr), i, j, t_min, exclude),
             None => self

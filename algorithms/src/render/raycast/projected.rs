@@ -271,13 +271,7 @@ impl<'a> Frame2<'a> {
             }
             *wk = v.abs();
         }
-        let sum = w[0] + w[1] + w[2];
-        let r = 1.0 / sum;
-        let wn = if (sum > 0.0) & (r > 0.0) {
-            w.map(|v| v * r)
-        } else {
-            [1.0 / 3.0; 3]
-        };
+        let wn = normalised(w);
         Some((
             wn[0] * lv[0].z + wn[1] * lv[1].z + wn[2] * lv[2].z,
             wn[0] * lv[0].s + wn[1] * lv[1].s + wn[2] * lv[2].s,
@@ -587,21 +581,27 @@ impl pulp::WithSimd for Blend<'_> {
         let (wt, z, s) = (self.wt, self.z, self.s);
         let (mut tt, mut sv) = ([0.0; QUEUE], [0.0; QUEUE]);
         for k in 0..QUEUE {
-            let w = [wt[0][k], wt[1][k], wt[2][k]];
-            let sum = w[0] + w[1] + w[2];
-            let r = 1.0 / sum;
-            // `sum > 0` and finite, tested as `r > 0` (1/sum is 0 only for sum = +∞, and NaN
-            // for NaN): two vector comparisons, where LLVM made `is_finite` (and `sum < ∞`) a
-            // dozen scalar bit-test instructions a lane.
-            let wn = if (sum > 0.0) & (r > 0.0) {
-                w.map(|v| v * r)
-            } else {
-                [1.0 / 3.0; 3]
-            };
+            let wn = normalised([wt[0][k], wt[1][k], wt[2][k]]);
             tt[k] = wn[0] * z[0][k] + wn[1] * z[1][k] + wn[2] * z[2][k];
             sv[k] = wn[0] * s[0][k] + wn[1] * s[1][k] + wn[2] * s[2][k];
         }
         (tt, sv)
+    }
+}
+
+/// Barycentric weights scaled to sum 1, or a third each where they sum to 0, overflow or are
+/// NaN.
+#[inline(always)]
+fn normalised(w: [f64; 3]) -> [f64; 3] {
+    let sum = w[0] + w[1] + w[2];
+    let r = 1.0 / sum;
+    // `sum > 0` and finite, tested as `r > 0` (1/sum is 0 only for sum = +∞, and NaN for NaN):
+    // two vector comparisons in the lane-wise blend, where LLVM made `is_finite` (and
+    // `sum < ∞`) a dozen scalar bit-test instructions a lane.
+    if (sum > 0.0) & (r > 0.0) {
+        w.map(|v| v * r)
+    } else {
+        [1.0 / 3.0; 3]
     }
 }
 

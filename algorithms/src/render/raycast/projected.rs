@@ -540,11 +540,17 @@ fn drain<S: Shade>(
     // All n at once (a segment of no length shades as zero, a no-op), and the termination
     // test once: opacity only grows, so the ray turned opaque on one of them iff it is opaque
     // after all of them. Only then are they composited again, one by one as the reference
-    // walk does, to stop on the one that made it opaque.
+    // walk does, to stop on the one that made it opaque. The n are composited among
+    // themselves first and the result onto the ray once ("under" is associative): the chain
+    // of dependent operations through the ray's opacity is then one link a queue, not one a
+    // segment, and the queue's own chain overlaps the walk (0.96–0.97× the frame on blunt,
+    // comb and post; the f64 pixels move by a few ulps, the f32 images not at all).
     let before = *acc;
+    let mut queued = Segment::default();
     for k in 0..n {
-        composite_under(acc, out.get(k));
+        composite_under(&mut queued, out.get(k));
     }
+    composite_under(acc, queued);
     if 1.0 - acc.alpha >= TERMINATE_T {
         return false;
     }

@@ -135,9 +135,9 @@ impl EntryGrid {
             }
         }
         let (nx, ny) = (w.div_ceil(CELL), h.div_ceil(CELL));
-        // Each face's padded box in pixels, or None off the image, and whether it is
-        // enterable.
-        let boxes: Vec<Option<(Item, bool)>> = (0..bvh.faces.len())
+        // Each face's padded box in pixels, or None off the image (the depth bound only for
+        // the enterable faces, the only ones searched).
+        let boxes: Vec<Option<Item>> = (0..bvh.faces.len())
             .into_par_iter()
             .map(|i| {
                 let bf = bvh.faces[i] as usize;
@@ -157,33 +157,34 @@ impl EntryGrid {
                     return None;
                 }
                 // f32 rounded outwards by the padding's margin (|x| ≤ a few thousand px).
-                let item = Item {
+                Some(Item {
                     leaf: i as u32,
                     x0: x0.max(-1.0) as f32,
                     x1: x1.min(w as f64 + 1.0) as f32,
                     y0: y0.max(-1.0) as f32,
                     y1: y1.min(h as f64 + 1.0) as f32,
-                    t_max: f32::INFINITY,
-                };
-                Some(if front.faces[i] {
-                    let t_max = depth_bound(cam, pos);
-                    (Item { t_max, ..item }, true)
-                } else {
-                    (item, false)
+                    t_max: if front.faces[i] {
+                        depth_bound(cam, pos)
+                    } else {
+                        f32::INFINITY
+                    },
                 })
             })
             .collect();
-        let covered = coverage(boxes.iter().flatten().map(|b| &b.0), w, h);
-        let boxes: Vec<Option<Item>> = boxes
-            .into_iter()
-            .map(|b| b.and_then(|(it, enterable)| enterable.then_some(it)))
-            .collect();
+        // Every face for the coverage bits, the enterable ones for the cells.
+        let covered = coverage(boxes.iter().flatten(), w, h);
+        let enterable = || {
+            boxes
+                .iter()
+                .flatten()
+                .filter(|it| front.faces[it.leaf as usize])
+        };
         let range = |it: &Item| {
             let c = |v: f32, n: usize| ((v.max(0.0) as usize) / CELL).min(n - 1);
             (c(it.x0, nx), c(it.x1, nx), c(it.y0, ny), c(it.y1, ny))
         };
         let mut start = vec![0u32; nx * ny + 1];
-        for it in boxes.iter().flatten() {
+        for it in enterable() {
             let (cx0, cx1, cy0, cy1) = range(it);
             for cy in cy0..=cy1 {
                 for cx in cx0..=cx1 {
@@ -204,7 +205,7 @@ impl EntryGrid {
             t_max: f32::NEG_INFINITY,
         };
         let mut items = vec![blank; start[nx * ny] as usize];
-        for it in boxes.iter().flatten() {
+        for it in enterable() {
             let (cx0, cx1, cy0, cy1) = range(it);
             for cy in cy0..=cy1 {
                 for cx in cx0..=cx1 {

@@ -212,15 +212,12 @@ fn spans<S: pulp::Simd>(
     qu: &mut Queue,
     buf: &mut [[f32; 4]],
 ) {
-    let ts = TILE as usize;
     let ntri = tr.ntri;
     let gbias = tr.gbias;
     // Max for s_f, min for s_b when σ ≥ 0; with σ < 0 both negated (exactly), so one kernel.
     let sg = if sigma_up { 1.0f32 } else { -1.0 };
     let sign = [sg, sg, 1.0];
     let sgv = simd.splat_f32s(sg);
-    // f32 lanes per vector (8 with AVX2; 1 on the scalar fallback).
-    let lanes = S::F32_LANES.min(IOTA.len());
     // Triangles past ntri repeat triangle 0 (min and max are idempotent).
     let tri = |k: usize| if k < ntri { k } else { 0 };
     // Per plane (index ch·4 + k): its value at centre (ia, j0), in f64, and its steps per
@@ -250,6 +247,54 @@ fn spans<S: pulp::Simd>(
     for (v, &s) in stepv.iter_mut().zip(&step) {
         *v = simd.splat_f32s(s);
     }
+    let set = SpanSet {
+        v0,
+        dy,
+        dx,
+        stepv,
+        sgv,
+        origin: (ia, j0),
+        tile: (x0, y0),
+    };
+    // The rows with as many planes a channel as the fan has triangles: a class-1 fan (three)
+    // evaluates 9 planes a vector, not 12 (the repeats of triangle 0 change no min or max, so
+    // the bits are the same).
+    match ntri {
+        1 => span_rows::<S, 1>(simd, tr, &set, line, qu, buf),
+        2 => span_rows::<S, 2>(simd, tr, &set, line, qu, buf),
+        3 => span_rows::<S, 3>(simd, tr, &set, line, qu, buf),
+        _ => span_rows::<S, 4>(simd, tr, &set, line, qu, buf),
+    }
+}
+
+/// One tet's planes as [`spans`] sets them up (index `ch·4 + k`: channel ch, triangle k): their
+/// value at centre `origin` in f64, steps per row and per column (f64), and per column as f32
+/// vectors; `sgv` the sign of the `s_f`, `s_b` channels; `tile` the tile's first centre.
+struct SpanSet<V> {
+    v0: [f64; 12],
+    dy: [f64; 12],
+    dx: [f64; 12],
+    stepv: [V; 12],
+    sgv: V,
+    origin: (i64, i64),
+    tile: (i64, i64),
+}
+
+/// The rows of [`spans`] with the first `NT` triangles' planes of each channel.
+#[inline(always)]
+fn span_rows<S: pulp::Simd, const NT: usize>(
+    simd: S,
+    tr: &mut TetRaster,
+    set: &SpanSet<S::f32s>,
+    line: Option<&TfLine>,
+    qu: &mut Queue,
+    buf: &mut [[f32; 4]],
+) {
+    let ts = TILE as usize;
+    let ((ia, j0), (x0, y0)) = (set.origin, set.tile);
+    let stepv = &set.stepv;
+    // f32 lanes per vector (8 with AVX2; 1 on the scalar fallback).
+    let lanes = S::F32_LANES.min(IOTA.len());
     // The lane offsets 0, 1, …: one whole-vector load (`partial_load` is pulp's masked-load
     // call even for a full vector).
     let iota = S::as_simd_f32s(&IOTA[..lanes]).0[0];
@@ -259,8 +304,11 @@ fn spans<S: pulp::Simd>(
         let mut b64 = [0.0f64; 12];
         {
             let (rv, av) = (simd.splat_f64s(r), simd.splat_f64s(a));
-            let ((v0v, v0t), (dyv, dyt), (dxv, dxt)) =
-                (S::as_simd_f64s(&v0), S::as_simd_f64s(&dy), S::as_simd_f64s(&dx));
+            let ((v0v, v0t), (dyv, dyt), (dxv, dxt)) = (
+                S::as_simd_f64s(&set.v0),
+                S::as_simd_f64s(&set.dy),
+                S::as_simd_f64s(&set.dx),
+            );
             let (bv, bt) = S::as_mut_simd_f64s(&mut b64);
             for (((b, &v), &y), &x) in bv.iter_mut().zip(v0v).zip(dyv).zip(dxv) {
                 // (v0 + r·dy) + a·dx, each operation rounded as the scalar expression.
@@ -272,22 +320,24 @@ fn spans<S: pulp::Simd>(
         }
         qu.reserve(n.div_ceil(lanes) * lanes, buf);
         let p0 = ((row.j - y0) as usize * ts + (row.i0 - x0) as usize) as u16;
-        let mut base = [simd.splat_f32s(0.0); 12];
-        for (v, &b) in base.iter_mut().zip(&b64) {
-            *v = simd.splat_f32s(b as f32);
+        let mut base = [[simd.splat_f32s(0.0); NT]; 3];
+        for (ch, bc) in base.iter_mut().enumerate() {
+            for (k, v) in bc.iter_mut().enumerate() {
+                *v = simd.splat_f32s(b64[ch * 4 + k] as f32);
+            }
         }
         for c in 0..n.div_ceil(lanes) {
             let x = simd.add_f32s(iota, simd.splat_f32s((c * lanes) as f32));
-            let plane = |ch: usize, k: usize| simd.mul_add_f32s(x, stepv[ch * 4 + k], base[ch * 4 + k]);
+            let plane = |ch: usize, k: usize| simd.mul_add_f32s(x, stepv[ch * 4 + k], base[ch][k]);
             let (mut vf, mut vb, mut vl) = (plane(0, 0), plane(1, 0), plane(2, 0));
-            for k in 1..4 {
+            for k in 1..NT {
                 vf = simd.max_f32s(vf, plane(0, k));
                 vb = simd.min_f32s(vb, plane(1, k));
                 vl = simd.min_f32s(vl, plane(2, k));
             }
             let v = Lanes {
-                sf: simd.mul_f32s(vf, sgv),
-                sb: simd.mul_f32s(vb, sgv),
+                sf: simd.mul_f32s(vf, set.sgv),
+                sb: simd.mul_f32s(vb, set.sgv),
                 l: vl,
                 count: (n - c * lanes).min(lanes),
             };

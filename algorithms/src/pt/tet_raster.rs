@@ -22,7 +22,7 @@
 //! from one side at `k = −h/st` (h its biased value at the row's first column, st its step per
 //! pixel). The bound is found exactly once per tet (an f64 estimate corrected by one integer test
 //! each way) and then stepped from row to row in integers, as a line is drawn by Bresenham's
-//! method (Bresenham 1965; see [`SilEdge`]), so the row's range is exact: every centre in it is
+//! method (Bresenham 1965; see [`SilEdges`]), so the row's range is exact: every centre in it is
 //! inside the silhouette. A horizontal silhouette edge (st = 0) bounds rows instead, and narrows
 //! the tet's row range once, in the set-up. [`raster_fan`] covers the same centres (test:
 //! `tet_rasteriser_matches_per_pixel_rasteriser`, and on `post` in `cpu_pt`'s tests).
@@ -35,65 +35,130 @@ use super::{pixel_box_in, pixel_centre, Case, Fragment};
 /// Fan edges at most (class 2: four triangles, five fan edges).
 pub const MAX_FAN: usize = 5;
 
-/// A slanted silhouette edge as the rows see it, in the form `h + k·st` with `st > 0` (an edge
-/// bounding the row from above, whose value falls along the row, is taken in `−k`): `k` is the
-/// first column offset where the edge is positive on the current row, and `r = h + k·st` its
-/// value there, so `0 < r ≤ st`. From row to row `h` grows by `sr`, so `k` moves by `q` or
-/// `q + 1` with `q = ⌊−sr/st⌋`: `r` grows by `step = sr + q·st ∈ (−st, 0]`, and where that
-/// leaves `r ≤ 0` one more column is needed (an exact integer DDA: no division per row).
+/// The slanted silhouette edges as the rows see them (at most four, a structure of arrays so
+/// that a row steps all four at once: four i64 lanes, one AVX2 vector), each in the form
+/// `h + k·st` with `st > 0` (an edge bounding the row from above, whose value falls along the
+/// row, is taken in `−k`): `k` is the first column offset where the edge is positive on the
+/// current row, and `r = h + k·st` its value there, so `0 < r ≤ st`. From row to row `h` grows
+/// by `sr`, so `k` moves by `q` or `q + 1` with `q = ⌊−sr/st⌋`: `r` grows by
+/// `step = sr + q·st ∈ (−st, 0]`, and where that leaves `r ≤ 0` one more column is needed (an
+/// exact integer DDA as a line is drawn by Bresenham's method: no division per row).
+///
+/// An unused slot bounds nothing: from below, at column 0, forever (`k = 0, r = 1, st = 1,
+/// q = step = 0`), so that every row steps four edges without a branch on how many there are.
 #[derive(Clone, Copy, Debug)]
-struct SilEdge {
-    k: i64,
-    r: i64,
-    st: i64,
-    q: i64,
-    step: i64,
-    /// Bounds the row from above (taken in `−k`).
-    hi: bool,
+struct SilEdges {
+    k: [i64; 4],
+    r: [i64; 4],
+    st: [i64; 4],
+    q: [i64; 4],
+    /// `q + 1`, the move of a row that takes the extra column.
+    q1: [i64; 4],
+    step: [i64; 4],
+    /// −1 (all bits) where the edge bounds the row from above (taken in `−k`), else 0.
+    hi: [i64; 4],
 }
 
-impl Default for SilEdge {
-    /// An edge that bounds nothing (from below, at column 0, forever): it fills the unused
-    /// slots, so that every row steps four edges without a branch on how many there are.
-    fn default() -> SilEdge {
-        SilEdge {
-            k: 0,
-            r: 1,
-            st: 1,
-            q: 0,
-            step: 0,
-            hi: false,
+impl Default for SilEdges {
+    fn default() -> SilEdges {
+        SilEdges {
+            k: [0; 4],
+            r: [1; 4],
+            st: [1; 4],
+            q: [0; 4],
+            q1: [1; 4],
+            step: [0; 4],
+            hi: [0; 4],
         }
     }
 }
 
-impl SilEdge {
-    /// Edge `h + k·st` (`st > 0`) whose `h` grows by `sr` a row.
+impl SilEdges {
+    /// Sets slot `e` to the edge `h + k·st` (`st > 0`) whose `h` grows by `sr` a row.
     #[inline(always)]
-    fn new(h: i64, st: i64, sr: i64, hi: bool) -> SilEdge {
+    fn set(&mut self, e: usize, h: i64, st: i64, sr: i64, hi: bool) {
         let inv = 1.0 / st as f64;
         let k = first_positive(h, st, inv);
         let q = first_positive(sr, st, inv) - 1;
-        SilEdge {
-            k,
-            r: h + k * st,
-            st,
-            q,
-            step: sr + q * st,
-            hi,
+        self.k[e] = k;
+        self.r[e] = h + k * st;
+        self.st[e] = st;
+        self.q[e] = q;
+        self.q1[e] = q + 1;
+        self.step[e] = sr + q * st;
+        self.hi[e] = -(hi as i64);
+    }
+
+    /// Every edge to the next row. Branch-free lane by lane (the extra column is Bresenham's
+    /// coin toss: as a branch, callgrind's model mispredicted 3.5 M of them in a post frame at
+    /// 512²), so that the compiler steps the four lanes in vectors.
+    #[inline(always)]
+    fn advance(&mut self) {
+        for e in 0..4 {
+            let r = self.r[e] + self.step[e];
+            let up = (r <= 0) as i64;
+            self.r[e] = r + (self.st[e] & -up);
+            self.k[e] += self.q[e] + up;
         }
     }
 
-    /// To the next row.
+    /// The current row's covered columns, offsets `a..=b` from the box's first (`last`: the
+    /// box's last offset); empty when `a > b`. From below: the first k with h + k·st > 0.
+    /// From above: the last k with h + k·st > 0 (st < 0), −(the first −k with
+    /// h + (−k)(−st) > 0).
     #[inline(always)]
-    fn advance(&mut self) {
-        // The extra column is Bresenham's coin toss: a select, not a branch (LLVM made
-        // `up · st` a jump; callgrind's branch model mispredicted 3.5 M of them in a post
-        // frame at 512²).
-        let r = self.r + self.step;
-        let up = r <= 0;
-        self.r = std::hint::select_unpredictable(up, r + self.st, r);
-        self.k += self.q + up as i64;
+    fn bounds(&self, last: i64) -> (i64, i64) {
+        let (mut a, mut b) = (0i64, last);
+        for e in 0..4 {
+            let (k, m) = (self.k[e], self.hi[e]);
+            a = a.max(k & !m);
+            b = b.min((-k & m) | (last & !m));
+        }
+        (a, b)
+    }
+
+    /// [`SilEdges::bounds`], then every edge to the next row ([`SilEdges::advance`]). The four
+    /// edges in `simd`'s i64 vectors (one
+    /// with AVX2: the compiler did not vectorise the scalar loops, which cost ~65 instructions
+    /// a row); a vector wider than four lanes (AVX-512, not enabled) takes the scalar loops.
+    #[inline(always)]
+    fn bounds_then_advance<S: pulp::Simd>(&mut self, simd: S, last: i64) -> (i64, i64) {
+        if std::mem::size_of::<S::i64s>() > std::mem::size_of::<[i64; 4]>() {
+            let ab = self.bounds(last);
+            self.advance();
+            return ab;
+        }
+        let (mut lo, mut up) = ([0i64; 4], [0i64; 4]);
+        {
+            let (k, kt) = S::as_mut_simd_i64s(&mut self.k);
+            let (r, _) = S::as_mut_simd_i64s(&mut self.r);
+            let (st, _) = S::as_simd_i64s(&self.st);
+            let (q, _) = S::as_simd_i64s(&self.q);
+            let (q1, _) = S::as_simd_i64s(&self.q1);
+            let (step, _) = S::as_simd_i64s(&self.step);
+            let (hi, _) = S::as_simd_i64s(&self.hi);
+            let (lv, _) = S::as_mut_simd_i64s(&mut lo);
+            let (uv, _) = S::as_mut_simd_i64s(&mut up);
+            let (zero, lastv) = (simd.splat_i64s(0), simd.splat_i64s(last));
+            for v in 0..k.len() {
+                let (kv, m) = (k[v], hi[v]);
+                let not_m = simd.not_i64s(m);
+                lv[v] = simd.and_i64s(kv, not_m);
+                uv[v] = simd.or_i64s(
+                    simd.and_i64s(simd.sub_i64s(zero, kv), m),
+                    simd.and_i64s(lastv, not_m),
+                );
+                let rv = simd.add_i64s(r[v], step[v]);
+                let extra = simd.less_than_or_equal_i64s(rv, zero);
+                r[v] = simd.select_i64s(extra, simd.add_i64s(rv, st[v]), rv);
+                k[v] = simd.add_i64s(kv, simd.select_i64s(extra, q1[v], q[v]));
+            }
+            // (Four lanes split into whole vectors: the case above took the wider ones.)
+            debug_assert!(kt.is_empty());
+        }
+        let a = lo.iter().fold(0, |a, &x| a.max(x));
+        let b = up.iter().fold(last, |b, &x| b.min(x));
+        (a, b)
     }
 }
 
@@ -140,7 +205,7 @@ pub struct TetRaster {
     pub inv_y: [f64; 4],
     /// The slanted silhouette edges (at most four; the rest of the slots bound nothing). A
     /// horizontal one bounds rows, not columns: it narrows `j0..=j1` once, in the set-up.
-    sil: [SilEdge; 4],
+    sil: SilEdges,
     nsil: usize,
     /// Rows a horizontal silhouette edge excludes at the top (stepped over once set up).
     skip: i64,
@@ -233,7 +298,7 @@ impl TetRaster {
             gbias: [0; MAX_FAN],
             inv_x: [0.0; 4],
             inv_y: [0.0; 4],
-            sil: [SilEdge::default(); 4],
+            sil: SilEdges::default(),
             nsil: 0,
             skip: 0,
         };
@@ -271,9 +336,7 @@ impl TetRaster {
     /// Steps every edge to the next row.
     #[inline(always)]
     fn step_row(&mut self) {
-        for e in self.sil.iter_mut() {
-            e.advance();
-        }
+        self.sil.advance();
         for (v, s) in self.g.iter_mut().zip(&self.gsr) {
             *v += s;
         }
@@ -288,7 +351,7 @@ impl TetRaster {
             // From above (st < 0): h + k·st = h + (−k)·(−st). A select, as the side is a coin
             // toss per edge.
             let hi = st < 0;
-            self.sil[self.nsil] = SilEdge::new(h, st.abs(), sr, hi);
+            self.sil.set(self.nsil, h, st.abs(), sr, hi);
             self.nsil += 1;
         } else {
             // Horizontal: row r (from j0) is inside iff h + r·sr > 0.
@@ -326,13 +389,7 @@ impl TetRaster {
         let last = self.ib - self.ia;
         while self.j0 <= self.j1 {
             let j = self.j0;
-            let (mut a, mut b) = (0i64, last);
-            for e in &self.sil {
-                // From below: the first k with h + k·st > 0. From above: the last k with
-                // h + k·st > 0 (st < 0), −(the first −k with h + (−k)(−st) > 0).
-                a = a.max(std::hint::select_unpredictable(e.hi, 0, e.k));
-                b = b.min(std::hint::select_unpredictable(e.hi, -e.k, last));
-            }
+            let (a, b) = self.sil.bounds(last);
             let g = self.g;
             self.step_row();
             if a <= b {
@@ -342,6 +399,23 @@ impl TetRaster {
                     i1: self.ia + b,
                     g: std::array::from_fn(|m| g[m] + a * self.gst[m]),
                 });
+            }
+        }
+        None
+    }
+
+    /// The next row's span `(j, i0, i1)` as [`TetRaster::next_row`] finds it, for a caller that
+    /// needs no fan edges: only the silhouette edges are stepped, in `simd`'s vectors (the
+    /// fan edges `g` stay at the row where the rows began).
+    #[inline(always)]
+    pub fn next_span<S: pulp::Simd>(&mut self, simd: S) -> Option<(i64, i64, i64)> {
+        let last = self.ib - self.ia;
+        while self.j0 <= self.j1 {
+            let j = self.j0;
+            let (a, b) = self.sil.bounds_then_advance(simd, last);
+            self.j0 += 1;
+            if a <= b {
+                return Some((j, self.ia + a, self.ia + b));
             }
         }
         None

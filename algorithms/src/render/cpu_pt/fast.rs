@@ -298,9 +298,9 @@ fn span_rows<S: pulp::Simd, const NT: usize>(
     // The lane offsets 0, 1, …: one whole-vector load (`partial_load` is pulp's masked-load
     // call even for a full vector).
     let iota = S::as_simd_f32s(&IOTA[..lanes]).0[0];
-    while let Some(row) = tr.next_row() {
-        let n = (row.i1 - row.i0 + 1) as usize;
-        let (r, a) = ((row.j - j0) as f64, (row.i0 - ia) as f64);
+    while let Some((j, i0, i1)) = tr.next_span(simd) {
+        let n = (i1 - i0 + 1) as usize;
+        let (r, a) = ((j - j0) as f64, (i0 - ia) as f64);
         let mut b64 = [0.0f64; 12];
         {
             let (rv, av) = (simd.splat_f64s(r), simd.splat_f64s(a));
@@ -319,7 +319,7 @@ fn span_rows<S: pulp::Simd, const NT: usize>(
             }
         }
         qu.reserve(n.div_ceil(lanes) * lanes, buf);
-        let p0 = ((row.j - y0) as usize * ts + (row.i0 - x0) as usize) as u16;
+        let p0 = ((j - y0) as usize * ts + (i0 - x0) as usize) as u16;
         let mut base = [[simd.splat_f32s(0.0); NT]; 3];
         for (ch, bc) in base.iter_mut().enumerate() {
             for (k, v) in bc.iter_mut().enumerate() {

@@ -559,7 +559,7 @@ fn tet_rasteriser_matches_per_pixel_rasteriser() {
             raster_fan(&g, clip, |f| want.push(f));
             let mut got = Vec::new();
             if let Some(r) = TetRaster::new(g.case, &q, clip) {
-                assert_spans_are_rows(r);
+                tet_raster::assert_spans_are_rows(r);
                 r.fragments(|f| got.push(f));
             }
             assert_same_fragments(want, &got, &(q, clip));
@@ -569,24 +569,6 @@ fn tet_rasteriser_matches_per_pixel_rasteriser() {
     assert!(total > 30_000, "{total}");
     // Every drawn class occurs.
     assert!(classes[1..=4].iter().all(|&n| n > 20), "{classes:?}");
-}
-
-/// [`TetRaster::next_span`] (the silhouette edges stepped in vectors: AVX2 where the CPU has
-/// it, and pulp's scalar lanes) finds the rows and spans of [`TetRaster::next_row`].
-fn assert_spans_are_rows(r: TetRaster) {
-    let mut rows = Vec::new();
-    let mut t = r;
-    while let Some(row) = t.next_row() {
-        rows.push((row.j, row.i0, row.i1));
-    }
-    fn spans<S: pulp::Simd>(simd: S, mut t: TetRaster) -> Vec<(i64, i64, i64)> {
-        std::iter::from_fn(|| t.next_span(simd)).collect()
-    }
-    assert_eq!(spans(pulp::Scalar::new(), r), rows);
-    #[cfg(target_arch = "x86_64")]
-    if let Some(simd) = pulp::x86::V3::try_new() {
-        assert_eq!(simd.vectorize(|| spans(simd, r)), rows);
-    }
 }
 
 /// The same at the ends of the snapped range (|x| up to 2³⁰, `MAX_PIXEL_COORD`), where the
@@ -626,7 +608,7 @@ fn tet_rasteriser_matches_per_pixel_rasteriser_at_extreme_coordinates() {
             raster_fan(&g, clip, |f| want.push(f));
             let mut got = Vec::new();
             if let Some(r) = TetRaster::new(g.case, &q, clip) {
-                assert_spans_are_rows(r);
+                tet_raster::assert_spans_are_rows(r);
                 r.fragments(|f| got.push(f));
             }
             want.sort_by_key(|f: &Fragment| (f.j, f.i));

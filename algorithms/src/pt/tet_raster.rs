@@ -447,3 +447,23 @@ impl TetRaster {
         });
     }
 }
+
+/// [`TetRaster::next_span`] (the silhouette edges stepped in vectors: AVX2 where the CPU has
+/// it, and pulp's scalar lanes) finds the rows and spans of [`TetRaster::next_row`] (called on
+/// every fan of the rasteriser tests in `pt/tests.rs`).
+#[cfg(test)]
+pub(super) fn assert_spans_are_rows(r: TetRaster) {
+    let mut rows = Vec::new();
+    let mut t = r;
+    while let Some(row) = t.next_row() {
+        rows.push((row.j, row.i0, row.i1));
+    }
+    fn spans<S: pulp::Simd>(simd: S, mut t: TetRaster) -> Vec<(i64, i64, i64)> {
+        std::iter::from_fn(|| t.next_span(simd)).collect()
+    }
+    assert_eq!(spans(pulp::Scalar::new(), r), rows);
+    #[cfg(target_arch = "x86_64")]
+    if let Some(simd) = pulp::x86::V3::try_new() {
+        assert_eq!(simd.vectorize(|| spans(simd, r)), rows);
+    }
+}

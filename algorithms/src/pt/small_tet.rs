@@ -167,8 +167,8 @@ mod tests {
     /// The same centres, triangles and weights as the per-triangle rasteriser, on the fans of
     /// `tet_rasteriser_matches_per_pixel_rasteriser` shrunk to a few pixels (lattice, random,
     /// degenerate) and clipped; a box of more centres than asked for is left to the rows, a
-    /// tet with nothing inside the clip draws nothing, and neither does a closed fan whose box
-    /// has no centre inside its silhouette (`culled`: those must be fans `raster_fan` draws
+    /// tet with nothing inside the clip draws nothing, and neither does a fan whose box has no
+    /// centre inside its silhouette (`culled`: those must be fans `raster_fan` draws
     /// nothing of, centres on the silhouette's edges included).
     #[test]
     fn small_tet_matches_per_pixel_rasteriser() {

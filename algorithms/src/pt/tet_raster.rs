@@ -52,8 +52,6 @@ struct SilEdges {
     r: [i64; 4],
     st: [i64; 4],
     q: [i64; 4],
-    /// `q + 1`, the move of a row that takes the extra column.
-    q1: [i64; 4],
     step: [i64; 4],
     /// −1 (all bits) where the edge bounds the row from above (taken in `−k`), else 0.
     hi: [i64; 4],
@@ -66,7 +64,6 @@ impl Default for SilEdges {
             r: [1; 4],
             st: [1; 4],
             q: [0; 4],
-            q1: [1; 4],
             step: [0; 4],
             hi: [0; 4],
         }
@@ -84,14 +81,14 @@ impl SilEdges {
         self.r[e] = h + k * st;
         self.st[e] = st;
         self.q[e] = q;
-        self.q1[e] = q + 1;
         self.step[e] = sr + q * st;
         self.hi[e] = -(hi as i64);
     }
 
-    /// Every edge to the next row. Branch-free lane by lane (the extra column is Bresenham's
+    /// Every edge to the next row, branch-free lane by lane (the extra column is Bresenham's
     /// coin toss: as a branch, callgrind's model mispredicted 3.5 M of them in a post frame at
-    /// 512²), so that the compiler steps the four lanes in vectors.
+    /// 512²). The scalar form, for `next_row` and the set-up's skipped rows;
+    /// [`SilEdges::bounds_then_advance`] is the vector one.
     #[inline(always)]
     fn advance(&mut self) {
         for e in 0..4 {
@@ -117,10 +114,10 @@ impl SilEdges {
         (a, b)
     }
 
-    /// [`SilEdges::bounds`], then every edge to the next row ([`SilEdges::advance`]). The four
-    /// edges in `simd`'s i64 vectors (one
-    /// with AVX2: the compiler did not vectorise the scalar loops, which cost ~65 instructions
-    /// a row); a vector wider than four lanes (AVX-512, not enabled) takes the scalar loops.
+    /// [`SilEdges::bounds`], then every edge to the next row ([`SilEdges::advance`]), the four
+    /// edges in `simd`'s i64 vectors (one with AVX2: the compiler did not vectorise the scalar
+    /// loops, ~65 instructions a row). A vector wider than four lanes (AVX-512, not enabled)
+    /// takes the scalar loops.
     #[inline(always)]
     fn bounds_then_advance<S: pulp::Simd>(&mut self, simd: S, last: i64) -> (i64, i64) {
         if std::mem::size_of::<S::i64s>() > std::mem::size_of::<[i64; 4]>() {
@@ -134,12 +131,12 @@ impl SilEdges {
             let (r, _) = S::as_mut_simd_i64s(&mut self.r);
             let (st, _) = S::as_simd_i64s(&self.st);
             let (q, _) = S::as_simd_i64s(&self.q);
-            let (q1, _) = S::as_simd_i64s(&self.q1);
             let (step, _) = S::as_simd_i64s(&self.step);
             let (hi, _) = S::as_simd_i64s(&self.hi);
             let (lv, _) = S::as_mut_simd_i64s(&mut lo);
             let (uv, _) = S::as_mut_simd_i64s(&mut up);
-            let (zero, lastv) = (simd.splat_i64s(0), simd.splat_i64s(last));
+            let (zero, one) = (simd.splat_i64s(0), simd.splat_i64s(1));
+            let lastv = simd.splat_i64s(last);
             for v in 0..k.len() {
                 let (kv, m) = (k[v], hi[v]);
                 let not_m = simd.not_i64s(m);
@@ -151,7 +148,8 @@ impl SilEdges {
                 let rv = simd.add_i64s(r[v], step[v]);
                 let extra = simd.less_than_or_equal_i64s(rv, zero);
                 r[v] = simd.select_i64s(extra, simd.add_i64s(rv, st[v]), rv);
-                k[v] = simd.add_i64s(kv, simd.select_i64s(extra, q1[v], q[v]));
+                let moved = simd.add_i64s(kv, q[v]);
+                k[v] = simd.add_i64s(moved, simd.select_i64s(extra, one, zero));
             }
             // (Four lanes split into whole vectors: the case above took the wider ones.)
             debug_assert!(kt.is_empty());

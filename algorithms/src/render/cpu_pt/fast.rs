@@ -218,8 +218,6 @@ fn spans<S: pulp::Simd>(
     let sg = if sigma_up { 1.0f32 } else { -1.0 };
     let sign = [sg, sg, 1.0];
     let sgv = simd.splat_f32s(sg);
-    // Triangles past ntri repeat triangle 0 (min and max are idempotent).
-    let tri = |k: usize| if k < ntri { k } else { 0 };
     // Per plane (index ch·4 + k): its value at centre (ia, j0), in f64, and its steps per
     // row and per column, each times the channel's sign (exact); the row's start is then a
     // product and a sum twice a plane, in f64 vectors (four planes a vector with AVX2), not
@@ -231,8 +229,9 @@ fn spans<S: pulp::Simd>(
     let mut step = [0.0f32; 12];
     for (ch, &sc) in sign.iter().enumerate() {
         let sc = sc as f64;
-        for k in 0..4 {
-            let (t, p) = (tri(k), ch * 4 + k);
+        // Planes past ntri stay 0: `span_rows` reads the first ntri of each channel.
+        for t in 0..ntri {
+            let p = ch * 4 + t;
             v0[p] = pl.at(&f0, t, ch) * sc;
             dy[p] = (tr.gsr[t + 1] as f64 * pl.cx[t][ch] + tr.gsr[t] as f64 * pl.cy[t][ch]) * sc;
             dx[p] = pl.da[t][ch] * sc;
@@ -257,8 +256,8 @@ fn spans<S: pulp::Simd>(
         tile: (x0, y0),
     };
     // The rows with as many planes a channel as the fan has triangles: a class-1 fan (three)
-    // evaluates 9 planes a vector, not 12 (the repeats of triangle 0 change no min or max, so
-    // the bits are the same).
+    // evaluates 9 planes a vector, not 12 (until 27efeca the missing triangles repeated
+    // triangle 0, which changed no min or max: the same bits).
     match ntri {
         1 => span_rows::<S, 1>(simd, tr, &set, line, qu, buf),
         2 => span_rows::<S, 2>(simd, tr, &set, line, qu, buf),

@@ -135,30 +135,11 @@ impl DrawTile<'_> {
             let Some(mut tr) = TetRaster::new(case, &q, clip) else {
                 continue;
             };
-            // Attributes (s_f, s_b, l) over fan triangle k: thick + lx·(x − thick) + ly·(y − thick)
-            // with x, y its silhouette vertices (l = 0 there) and lx = −F_{k+1}·inv_x,
-            // ly = F_k·inv_y (see `TetRaster`): thick + F_{k+1}·cx[k] + F_k·cy[k], in f64, set up
-            // once per tet; `da` is the step per pixel.
-            let thick = [r.sf as f64, r.sb as f64, r.l as f64];
-            let mut cx = [[0.0f64; 4]; 4];
-            let mut cy = [[0.0f64; 4]; 4];
-            let mut da = [[0.0f64; 4]; 4];
-            for k in 0..tr.ntri {
-                let sx = r.s[case.fan[k] as usize] as f64;
-                let sy = r.s[case.fan[k + 1] as usize] as f64;
-                let dx = [sx - thick[0], sx - thick[1], -thick[2]];
-                let dy = [sy - thick[0], sy - thick[1], -thick[2]];
-                for ch in 0..3 {
-                    cx[k][ch] = -tr.inv_x[k] * dx[ch];
-                    cy[k][ch] = tr.inv_y[k] * dy[ch];
-                    da[k][ch] = tr.gst[k + 1] as f64 * cx[k][ch] + tr.gst[k] as f64 * cy[k][ch];
-                }
-            }
-            let planes = Planes { thick, cx, cy, da };
             let line = qu.line(&r.s);
             if self.kernel == Kernel::Spans && tr.valid == (1 << tr.ntri) - 1 {
-                spans(simd, &mut tr, &planes, r.sb >= r.sf, (x0, y0), line, &mut qu, &mut buf);
+                spans(simd, &mut tr, r, case, (x0, y0), line, &mut qu, &mut buf);
             } else {
+                let planes = Planes::new(&tr, r, case);
                 per_pixel(&mut tr, &planes, (x0, y0), line, &mut qu, &mut buf);
             }
         }
@@ -177,6 +158,31 @@ struct Planes {
 }
 
 impl Planes {
+    /// Attributes (s_f, s_b, l) over fan triangle k: thick + lx·(x − thick) + ly·(y − thick)
+    /// with x, y its silhouette vertices (l = 0 there) and lx = −F_{k+1}·inv_x,
+    /// ly = F_k·inv_y (see `TetRaster`): thick + F_{k+1}·cx[k] + F_k·cy[k], in f64, set up
+    /// once per tet; `da` is the step per pixel. ([`SpanSet::new`] computes the same planes,
+    /// operation for operation, for the span kernel.)
+    #[inline(always)]
+    fn new(tr: &TetRaster, r: &FastRec, case: &Case) -> Planes {
+        let thick = [r.sf as f64, r.sb as f64, r.l as f64];
+        let mut cx = [[0.0f64; 4]; 4];
+        let mut cy = [[0.0f64; 4]; 4];
+        let mut da = [[0.0f64; 4]; 4];
+        for k in 0..tr.ntri {
+            let sx = r.s[case.fan[k] as usize] as f64;
+            let sy = r.s[case.fan[k + 1] as usize] as f64;
+            let dx = [sx - thick[0], sx - thick[1], -thick[2]];
+            let dy = [sy - thick[0], sy - thick[1], -thick[2]];
+            for ch in 0..3 {
+                cx[k][ch] = -tr.inv_x[k] * dx[ch];
+                cy[k][ch] = tr.inv_y[k] * dy[ch];
+                da[k][ch] = tr.gst[k + 1] as f64 * cx[k][ch] + tr.gst[k] as f64 * cy[k][ch];
+            }
+        }
+        Planes { thick, cx, cy, da }
+    }
+
     /// Channel `ch` of triangle `k`'s plane at a pixel whose unbiased fan edges are `f`.
     #[inline(always)]
     fn at(&self, f: &[f64; MAX_FAN], k: usize, ch: usize) -> f64 {
@@ -193,10 +199,10 @@ impl Planes {
 /// linear over each fan triangle, the min of the triangles' planes. The scalar is linear in the
 /// tet, `s = S(x, y) + σ·z`, so `s_f = S + σ·z_in` is convex when σ ≥ 0 (the max of the planes)
 /// and concave when σ < 0 (the min), and `s_b = S + σ·z_out` the other way round; σ has the sign
-/// of `s_b − s_f` at the thick vertex (`sigma_up`). On each triangle its own plane attains the
-/// min (max), so the value is its plane's, up to rounding: the planes are evaluated in f32
-/// (`base + k·step`, k < 128, the tile's width) where the per-pixel kernel rounds its f64 value
-/// once.
+/// of `s_b − s_f` at the thick vertex (see [`SpanSet::new`]). On each triangle its own plane
+/// attains the min (max), so the value is its plane's, up to rounding: the planes are evaluated
+/// in f32 (`base + k·step`, k < 128, the tile's width) where the per-pixel kernel rounds its f64
+/// value once.
 ///
 /// Every centre of a row is in the fan when all its triangles are valid (they tile the
 /// silhouette), which the caller checks; the queue takes the whole row.
@@ -205,60 +211,18 @@ impl Planes {
 fn spans<S: pulp::Simd>(
     simd: S,
     tr: &mut TetRaster,
-    pl: &Planes,
-    sigma_up: bool,
-    (x0, y0): (i64, i64),
+    r: &FastRec,
+    case: &Case,
+    tile: (i64, i64),
     line: Option<&TfLine>,
     qu: &mut Queue,
     buf: &mut [[f32; 4]],
 ) {
-    let ntri = tr.ntri;
-    let gbias = tr.gbias;
-    // Max for s_f, min for s_b when σ ≥ 0; with σ < 0 both negated (exactly), so one kernel.
-    let sg = if sigma_up { 1.0f32 } else { -1.0 };
-    let sign = [sg, sg, 1.0];
-    let sgv = simd.splat_f32s(sg);
-    // Per plane (index ch·4 + k): its value at centre (ia, j0), in f64, and its steps per
-    // row and per column, each times the channel's sign (exact); the row's start is then a
-    // product and a sum twice a plane, in f64 vectors (four planes a vector with AVX2), not
-    // the plane's evaluation from the fan edges. (Negating before the rounding to f32 gives
-    // the bits of negating after it.)
-    let (ia, j0) = (tr.ia, tr.j0);
-    let f0: [f64; MAX_FAN] = std::array::from_fn(|m| (tr.g[m] - gbias[m]) as f64);
-    let (mut v0, mut dy, mut dx) = ([0.0f64; 12], [0.0f64; 12], [0.0f64; 12]);
-    let mut step = [0.0f32; 12];
-    for (ch, &sc) in sign.iter().enumerate() {
-        let sc = sc as f64;
-        // Planes past ntri stay 0: `span_rows` reads the first ntri of each channel.
-        for t in 0..ntri {
-            let p = ch * 4 + t;
-            v0[p] = pl.at(&f0, t, ch) * sc;
-            dy[p] = (tr.gsr[t + 1] as f64 * pl.cx[t][ch] + tr.gsr[t] as f64 * pl.cy[t][ch]) * sc;
-            dx[p] = pl.da[t][ch] * sc;
-            step[p] = dx[p] as f32;
-        }
-    }
-    // Splats in plain loops, not `array::map`: a closure does not inherit the target features of
-    // the function it sits in, and when the compiler leaves it out of line (as it did with 16
-    // codegen units after an unrelated change) every splat became a call and the draw ran 1.48×
-    // slower (docs/performance.md, fifteenth pass).
-    let mut stepv = [simd.splat_f32s(0.0); 12];
-    for (v, &s) in stepv.iter_mut().zip(&step) {
-        *v = simd.splat_f32s(s);
-    }
-    let set = SpanSet {
-        v0,
-        dy,
-        dx,
-        stepv,
-        sgv,
-        origin: (ia, j0),
-        tile: (x0, y0),
-    };
+    let set = SpanSet::new(simd, tr, r, case, tile);
     // The rows with as many planes a channel as the fan has triangles: a class-1 fan (three)
     // evaluates 9 planes a vector, not 12 (until 27efeca the missing triangles repeated
     // triangle 0, which changed no min or max: the same bits).
-    match ntri {
+    match tr.ntri {
         1 => span_rows::<S, 1>(simd, tr, &set, line, qu, buf),
         2 => span_rows::<S, 2>(simd, tr, &set, line, qu, buf),
         3 => span_rows::<S, 3>(simd, tr, &set, line, qu, buf),
@@ -277,6 +241,72 @@ struct SpanSet<V> {
     sgv: V,
     origin: (i64, i64),
     tile: (i64, i64),
+}
+
+impl<V: Copy> SpanSet<V> {
+    /// The planes of [`Planes::new`] and [`Planes::at`], computed the same way (the same
+    /// operations in the same order, so the same bits) but straight into the span kernel's
+    /// layout, for all four triangle slots at once (fixed-length loops the compiler turns into
+    /// f64 vectors; the slots past `ntri` have zero normalisers and are never read), and each
+    /// times its channel's sign: max for `s_f`, min for `s_b` when σ ≥ 0 (`s_b ≥ s_f` at the
+    /// thick vertex); with σ < 0 both negated (exactly), so that one kernel serves both. Per
+    /// plane (index
+    /// `ch·4 + k`): its value at centre (ia, j0), its steps per row and per column; the row's
+    /// start is then a product and a sum twice a plane, in f64 vectors, not the plane's
+    /// evaluation from the fan edges. (Negating before the rounding to f32 gives the bits of
+    /// negating after it.)
+    #[inline(always)]
+    fn new<S: pulp::Simd<f32s = V>>(
+        simd: S,
+        tr: &TetRaster,
+        r: &FastRec,
+        case: &Case,
+        tile: (i64, i64),
+    ) -> SpanSet<V> {
+        let thick = [r.sf as f64, r.sb as f64, r.l as f64];
+        let sg = if r.sb >= r.sf { 1.0f32 } else { -1.0 };
+        let sign = [sg as f64, sg as f64, 1.0];
+        let sx: [f64; 4] = std::array::from_fn(|t| r.s[case.fan[t] as usize] as f64);
+        let sy: [f64; 4] = std::array::from_fn(|t| r.s[case.fan[t + 1] as usize] as f64);
+        let f0: [f64; MAX_FAN] = std::array::from_fn(|m| (tr.g[m] - tr.gbias[m]) as f64);
+        let gst: [f64; MAX_FAN] = std::array::from_fn(|m| tr.gst[m] as f64);
+        let gsr: [f64; MAX_FAN] = std::array::from_fn(|m| tr.gsr[m] as f64);
+        let (mut v0, mut dy, mut dx) = ([0.0f64; 12], [0.0f64; 12], [0.0f64; 12]);
+        let mut step = [0.0f32; 12];
+        for ch in 0..3 {
+            for t in 0..4 {
+                let (ex, ey) = if ch < 2 {
+                    (sx[t] - thick[ch], sy[t] - thick[ch])
+                } else {
+                    (-thick[2], -thick[2])
+                };
+                let cx = -tr.inv_x[t] * ex;
+                let cy = tr.inv_y[t] * ey;
+                let p = ch * 4 + t;
+                v0[p] = (thick[ch] + f0[t + 1] * cx + f0[t] * cy) * sign[ch];
+                dy[p] = (gsr[t + 1] * cx + gsr[t] * cy) * sign[ch];
+                dx[p] = (gst[t + 1] * cx + gst[t] * cy) * sign[ch];
+                step[p] = dx[p] as f32;
+            }
+        }
+        // Splats in plain loops, not `array::map`: a closure does not inherit the target
+        // features of the function it sits in, and when the compiler leaves it out of line (as
+        // it did with 16 codegen units after an unrelated change) every splat became a call and
+        // the draw ran 1.48× slower (docs/performance.md, fifteenth pass).
+        let mut stepv = [simd.splat_f32s(0.0); 12];
+        for (v, &s) in stepv.iter_mut().zip(&step) {
+            *v = simd.splat_f32s(s);
+        }
+        SpanSet {
+            v0,
+            dy,
+            dx,
+            stepv,
+            sgv: simd.splat_f32s(sg),
+            origin: (tr.ia, tr.j0),
+            tile,
+        }
+    }
 }
 
 /// The rows of [`spans`] with the first `NT` triangles' planes of each channel.

@@ -95,9 +95,12 @@ pub(crate) fn colour_lanes_n<const N: usize>(
     // What the unchecked loads of `psi_at` rely on.
     assert!(psi.size() >= 2 && psi.data().len() >= psi.size().pow(2));
     let m = (psi.size() - 1) as f32;
-    let mut ok = [false; N];
-    let mut zeta = [0.0f32; N];
-    let (mut ga, mut gb) = ([0.0f32; N], [0.0f32; N]);
+    // Pass 1 hands its values on in `out`'s planes, each read at lane k before lane k is
+    // written: `zeta` in plane 0, NaN for an invalid lane (a valid lane's is finite), the Ψ
+    // coordinates in planes 1 and 2. (Five scratch arrays took a `memset` call each to zero,
+    // ~1 % of a cpu-pt frame; Ψ keeps one, as the look-ups written to a plane they read were
+    // not vectorised.)
+    let [or, og, ob, oa] = out;
     // 1. Validity, exp and the Ψ table coordinates γ·(n − 1) (as `psi_lookup`).
     for k in 0..N {
         let valid = l[k] > 0.0 && finite(cf[3][k]) && finite(cb[3][k]);
@@ -108,22 +111,26 @@ pub(crate) fn colour_lanes_n<const N: usize>(
             (0.0, 0.0, 0.0)
         };
         let (fa, fb) = (tau_len(tf, lk), tau_len(tb, lk));
-        zeta[k] = exp_neg(0.5 * (fa + fb));
-        ga[k] = (1.0 - 1.0 / (1.0 + fa)) * m;
-        gb[k] = (1.0 - 1.0 / (1.0 + fb)) * m;
-        ok[k] = valid;
+        or[k] = if valid {
+            exp_neg(0.5 * (fa + fb))
+        } else {
+            f32::NAN
+        };
+        og[k] = (1.0 - 1.0 / (1.0 + fa)) * m;
+        ob[k] = (1.0 - 1.0 / (1.0 + fb)) * m;
     }
     // 2. Ψ (look-ups).
     let mut ps = [0.0f32; N];
     for k in 0..N {
-        ps[k] = psi_at(psi, ga[k], gb[k]);
+        ps[k] = psi_at(psi, og[k], ob[k]);
     }
     // 3. The blend.
-    let [or, og, ob, oa] = out;
     for k in 0..N {
-        let alpha = 1.0 - zeta[k];
-        let pmz = (ps[k] - zeta[k]).max(0.0).min(alpha);
-        let z = |v: f32| if ok[k] { v } else { 0.0 };
+        let (zeta, ps) = (or[k], ps[k]);
+        let ok = !zeta.is_nan();
+        let alpha = 1.0 - zeta;
+        let pmz = (ps - zeta).max(0.0).min(alpha);
+        let z = |v: f32| if ok { v } else { 0.0 };
         or[k] = z(cf[0][k] * alpha + (cb[0][k] - cf[0][k]) * pmz);
         og[k] = z(cf[1][k] * alpha + (cb[1][k] - cf[1][k]) * pmz);
         ob[k] = z(cf[2][k] * alpha + (cb[2][k] - cf[2][k]) * pmz);

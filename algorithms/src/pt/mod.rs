@@ -122,6 +122,10 @@ pub struct Case {
     /// (thick, fan[k], fan[k + 1]), k < ntri, each with positive orientation
     /// `(b − a) × (c − a) > 0` in pixel coordinates (x right, y down).
     pub fan: [u8; 5],
+    /// The vertex the fan edge to fan[k] is measured from ([`raster::dir_from_thick`]'s
+    /// anchor, derived from the rest at compile time: the rasterisers' set-up reads it instead
+    /// of choosing it per tet).
+    pub anchor: [u8; 5],
 }
 
 impl Case {
@@ -131,6 +135,7 @@ impl Case {
         side_a: 0,
         side_b: 0,
         fan: [0; 5],
+        anchor: [0; 5],
     };
 
     /// Packs the entry into 32 bits for the GPU: bits 0–3 class, 4–7 ntri, 8–11 side_a,
@@ -162,7 +167,30 @@ impl Case {
             side_a: ((v >> 8) & 15) as u8,
             side_b: ((v >> 12) & 15) as u8,
             fan,
+            anchor: [0; 5],
         }
+        .with_anchors()
+    }
+
+    /// The entry with [`Case::anchor`] derived from its class, sides and fan: for class 2 the
+    /// other member of fan[k]'s side with the lowest index, else the lowest member of side A
+    /// (as [`raster::dir_from_thick`] chooses; 0 where there is none).
+    const fn with_anchors(mut self) -> Case {
+        let mut k = 0;
+        while k < 5 {
+            let v = self.fan[k];
+            let set = if self.class != 2 {
+                self.side_a
+            } else if self.side_a & (1 << v) != 0 {
+                self.side_a & !(1 << v)
+            } else {
+                self.side_b & !(1 << v)
+            };
+            let a = set.trailing_zeros();
+            self.anchor[k] = if a < 4 { a as u8 } else { 0 };
+            k += 1;
+        }
+        self
     }
 
     /// Whether a tet of this case is drawn.
@@ -257,6 +285,7 @@ const fn build_case(idx: usize) -> Case {
         side_a: a,
         side_b: b,
         fan: [0; 5],
+        anchor: [0; 5],
     };
     match (av.1, bv.1) {
         (1, 3) => {
@@ -335,7 +364,7 @@ const fn build_table() -> [Case; 81] {
     let mut t = [Case::NONE; 81];
     let mut i = 0;
     while i < 81 {
-        t[i] = build_case(i);
+        t[i] = build_case(i).with_anchors();
         i += 1;
     }
     t

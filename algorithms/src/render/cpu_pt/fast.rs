@@ -246,15 +246,13 @@ struct SpanSet<V> {
 impl<V: Copy> SpanSet<V> {
     /// The planes of [`Planes::new`] and [`Planes::at`], computed the same way (the same
     /// operations in the same order, so the same bits) but straight into the span kernel's
-    /// layout, for all four triangle slots at once (fixed-length loops the compiler turns into
-    /// f64 vectors; the slots past `ntri` have zero normalisers and are never read), and each
-    /// times its channel's sign: max for `s_f`, min for `s_b` when σ ≥ 0 (`s_b ≥ s_f` at the
-    /// thick vertex); with σ < 0 both negated (exactly), so that one kernel serves both. Per
-    /// plane (index
-    /// `ch·4 + k`): its value at centre (ia, j0), its steps per row and per column; the row's
-    /// start is then a product and a sum twice a plane, in f64 vectors, not the plane's
-    /// evaluation from the fan edges. (Negating before the rounding to f32 gives the bits of
-    /// negating after it.)
+    /// layout, for all four triangle slots at once (in f64 vectors; the slots past `ntri` have
+    /// zero normalisers and are never read), and each times its channel's sign: max for `s_f`,
+    /// min for `s_b` when σ ≥ 0 (`s_b ≥ s_f` at the thick vertex); with σ < 0 both negated
+    /// (exactly), so that one kernel serves both. Per plane (index `ch·4 + k`): its value at
+    /// centre (ia, j0), its steps per row and per column; the row's start is then a product and
+    /// a sum twice a plane, in f64 vectors, not the plane's evaluation from the fan edges.
+    /// (Negating before the rounding to f32 gives the bits of negating after it.)
     #[inline(always)]
     fn new<S: pulp::Simd<f32s = V>>(
         simd: S,
@@ -268,26 +266,49 @@ impl<V: Copy> SpanSet<V> {
         let sign = [sg as f64, sg as f64, 1.0];
         let sx: [f64; 4] = std::array::from_fn(|t| r.s[case.fan[t] as usize] as f64);
         let sy: [f64; 4] = std::array::from_fn(|t| r.s[case.fan[t + 1] as usize] as f64);
-        let f0: [f64; MAX_FAN] = std::array::from_fn(|m| (tr.g[m] - tr.gbias[m]) as f64);
+        let fe: [f64; MAX_FAN] = std::array::from_fn(|m| (tr.g[m] - tr.gbias[m]) as f64);
         let gst: [f64; MAX_FAN] = std::array::from_fn(|m| tr.gst[m] as f64);
         let gsr: [f64; MAX_FAN] = std::array::from_fn(|m| tr.gsr[m] as f64);
+        // Per triangle slot t: the fan edges F_{t+1} and F_t (value, steps), as arrays of four.
+        let four = |a: &[f64; MAX_FAN], o: usize| -> [f64; 4] { std::array::from_fn(|t| a[t + o]) };
+        let (f1, f0) = (four(&fe, 1), four(&fe, 0));
+        let (gst1, gst0, gsr1, gsr0) = (four(&gst, 1), four(&gst, 0), four(&gsr, 1), four(&gsr, 0));
+        let nix: [f64; 4] = std::array::from_fn(|t| -tr.inv_x[t]);
         let (mut v0, mut dy, mut dx) = ([0.0f64; 12], [0.0f64; 12], [0.0f64; 12]);
         let mut step = [0.0f32; 12];
         for ch in 0..3 {
-            for t in 0..4 {
-                let (ex, ey) = if ch < 2 {
-                    (sx[t] - thick[ch], sy[t] - thick[ch])
-                } else {
-                    (-thick[2], -thick[2])
-                };
-                let cx = -tr.inv_x[t] * ex;
-                let cy = tr.inv_y[t] * ey;
-                let p = ch * 4 + t;
-                v0[p] = (thick[ch] + f0[t + 1] * cx + f0[t] * cy) * sign[ch];
-                dy[p] = (gsr[t + 1] * cx + gsr[t] * cy) * sign[ch];
-                dx[p] = (gst[t + 1] * cx + gst[t] * cy) * sign[ch];
-                step[p] = dx[p] as f32;
+            let (ex, ey): ([f64; 4], [f64; 4]) = if ch < 2 {
+                (sx.map(|v| v - thick[ch]), sy.map(|v| v - thick[ch]))
+            } else {
+                ([-thick[2]; 4], [-thick[2]; 4])
+            };
+            // The four slots in `simd`'s f64 vectors (one with AVX2); each product and sum
+            // rounded as the scalar expression's (a loop over the slots with the three results
+            // interleaved was left scalar: ~200 instructions a tet).
+            let (thv, sgn) = (simd.splat_f64s(thick[ch]), simd.splat_f64s(sign[ch]));
+            let v = |a| S::as_simd_f64s(a).0;
+            let (nixv, iyv, exv, eyv) = (v(&nix), v(&tr.inv_y), v(&ex), v(&ey));
+            let (f1v, f0v, gs1v, gs0v) = (v(&f1), v(&f0), v(&gst1), v(&gst0));
+            let (gr1v, gr0v) = (v(&gsr1), v(&gsr0));
+            let range = ch * 4..ch * 4 + 4;
+            let vo = S::as_mut_simd_f64s(&mut v0[range.clone()]).0;
+            let ro = S::as_mut_simd_f64s(&mut dy[range.clone()]).0;
+            let co = S::as_mut_simd_f64s(&mut dx[range]).0;
+            for i in 0..vo.len() {
+                let cx = simd.mul_f64s(nixv[i], exv[i]);
+                let cy = simd.mul_f64s(iyv[i], eyv[i]);
+                // (thick + F_{t+1}·cx) + F_t·cy, then the sign; the steps likewise.
+                let at = simd.add_f64s(thv, simd.mul_f64s(f1v[i], cx));
+                let at = simd.add_f64s(at, simd.mul_f64s(f0v[i], cy));
+                vo[i] = simd.mul_f64s(at, sgn);
+                let row = simd.add_f64s(simd.mul_f64s(gr1v[i], cx), simd.mul_f64s(gr0v[i], cy));
+                ro[i] = simd.mul_f64s(row, sgn);
+                let col = simd.add_f64s(simd.mul_f64s(gs1v[i], cx), simd.mul_f64s(gs0v[i], cy));
+                co[i] = simd.mul_f64s(col, sgn);
             }
+        }
+        for (s, &d) in step.iter_mut().zip(&dx) {
+            *s = d as f32;
         }
         // Splats in plain loops, not `array::map`: a closure does not inherit the target
         // features of the function it sits in, and when the compiler leaves it out of line (as

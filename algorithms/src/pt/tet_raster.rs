@@ -487,12 +487,9 @@ mod tests {
                     std::array::from_fn(|_| (rng.f() * 1e6) as i64 - 500_000)
                 });
                 let dirs = fan_dirs(c, &q);
-                for k in 0..=c.ntri as usize {
-                    assert_eq!(
-                        dirs[k],
-                        dir_from_thick(c, &q, c.fan[k] as usize),
-                        "{c:?}, k = {k}"
-                    );
+                for (k, d) in dirs.iter().enumerate().take(c.ntri as usize + 1) {
+                    let want = dir_from_thick(c, &q, c.fan[k] as usize);
+                    assert_eq!(*d, want, "{c:?}, k = {k}");
                 }
             }
         }

@@ -122,10 +122,10 @@ pub struct Case {
     /// (thick, fan[k], fan[k + 1]), k < ntri, each with positive orientation
     /// `(b − a) × (c − a) > 0` in pixel coordinates (x right, y down).
     pub fan: [u8; 5],
-    /// The vertex the fan edge to fan[k] is measured from ([`raster::dir_from_thick`]'s
-    /// anchor, derived from the rest at compile time: the rasterisers' set-up reads it instead
-    /// of choosing it per tet).
-    pub anchor: [u8; 5],
+    /// Per vertex v, the vertex its fan edge is measured from ([`raster::dir_from_thick`]):
+    /// derived from the class and sides at compile time ([`Case::with_anchors`]), so that the
+    /// rasterisers' set-up reads it instead of choosing it per tet.
+    pub anchor: [u8; 4],
 }
 
 impl Case {
@@ -135,7 +135,7 @@ impl Case {
         side_a: 0,
         side_b: 0,
         fan: [0; 5],
-        anchor: [0; 5],
+        anchor: [0; 4],
     };
 
     /// Packs the entry into 32 bits for the GPU: bits 0–3 class, 4–7 ntri, 8–11 side_a,
@@ -167,18 +167,20 @@ impl Case {
             side_a: ((v >> 8) & 15) as u8,
             side_b: ((v >> 12) & 15) as u8,
             fan,
-            anchor: [0; 5],
+            anchor: [0; 4],
         }
         .with_anchors()
     }
 
-    /// The entry with [`Case::anchor`] derived from its class, sides and fan: for class 2 the
-    /// other member of fan[k]'s side with the lowest index, else the lowest member of side A
-    /// (as [`raster::dir_from_thick`] chooses; 0 where there is none).
+    /// The entry with [`Case::anchor`] derived from its class and sides. The fan edge from
+    /// the thick vertex towards v lies on a line through two snapped vertices, so that it is
+    /// evaluated exactly: for class 2 the thick vertex is the crossing of sides A and B, and v's
+    /// edge runs along v's side, from its other member; otherwise the thick vertex is a snapped
+    /// vertex (side A's lowest member, with A and B coinciding in class 4). 0 where there is
+    /// none (entries not drawn).
     const fn with_anchors(mut self) -> Case {
-        let mut k = 0;
-        while k < 5 {
-            let v = self.fan[k];
+        let mut v = 0;
+        while v < 4 {
             let set = if self.class != 2 {
                 self.side_a
             } else if self.side_a & (1 << v) != 0 {
@@ -187,8 +189,8 @@ impl Case {
                 self.side_b & !(1 << v)
             };
             let a = set.trailing_zeros();
-            self.anchor[k] = if a < 4 { a as u8 } else { 0 };
-            k += 1;
+            self.anchor[v] = if a < 4 { a as u8 } else { 0 };
+            v += 1;
         }
         self
     }
@@ -285,7 +287,7 @@ const fn build_case(idx: usize) -> Case {
         side_a: a,
         side_b: b,
         fan: [0; 5],
-        anchor: [0; 5],
+        anchor: [0; 4],
     };
     match (av.1, bv.1) {
         (1, 3) => {

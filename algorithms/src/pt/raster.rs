@@ -83,20 +83,11 @@ pub fn pixel_box_in(q: &[[i64; 2]; 4], clip: [i64; 4]) -> Option<[i64; 4]> {
 }
 
 /// Direction of the fan edge from the thick vertex towards vertex `v` (see
-/// [`FanGeometry::dir_from_thick`]).
-#[inline]
+/// [`FanGeometry::dir_from_thick`]): from v's anchor in the table ([`Case::anchor`]).
+#[inline(always)]
 pub(super) fn dir_from_thick(c: &Case, q: &[[i64; 2]; 4], v: usize) -> [i64; 2] {
-    let anchor = if c.class == 2 {
-        let set = if c.side_a & (1 << v) != 0 {
-            c.side_a
-        } else {
-            c.side_b
-        };
-        (set & !(1 << v)).trailing_zeros() as usize
-    } else {
-        c.side_a.trailing_zeros() as usize
-    };
-    [q[v][0] - q[anchor][0], q[v][1] - q[anchor][1]]
+    let a = q[c.anchor[v] as usize];
+    [q[v][0] - a[0], q[v][1] - a[1]]
 }
 
 /// Index of the first pixel whose centre is ≥ `x` (snapped units).
@@ -353,5 +344,49 @@ pub fn raster_fan_rows(c: &Case, q: &[[i64; 2]; 4], clip: [i64; 4], mut f: impl 
             v[1] += sr[1];
             v[2] += sr[2];
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::tests::{fan_points, Rng};
+    use super::super::{classify, ProjVertex};
+    use super::*;
+
+    /// The table's anchors put every fan edge on the line from the thick vertex through its
+    /// vertex, pointing towards it: the thick vertex (classified in f64) lies on the line through
+    /// the anchor and v, on the anchor's side of v. On random, lattice and degenerate fans
+    /// (classes 1–4).
+    #[test]
+    fn anchors_put_fan_edges_through_the_thick_vertex() {
+        let mut rng = Rng::new(31);
+        let mut classes = [0usize; 5];
+        for it in 0..4000 {
+            let q = fan_points(&mut rng, it % 5);
+            let v = q.map(|q| ProjVertex {
+                q,
+                ..Default::default()
+            });
+            let g = FanGeometry::new(q, &classify(&v, false, 1.0));
+            let c = g.case;
+            if !c.drawn() {
+                continue;
+            }
+            classes[c.class as usize] += 1;
+            for &v in &c.fan[..=c.ntri as usize] {
+                let v = v as usize;
+                let d = dir_from_thick(c, &q, v);
+                // From the thick vertex to v.
+                let (tx, ty) = (q[v][0] as f64 - g.thick[0], q[v][1] as f64 - g.thick[1]);
+                let (dx, dy) = (d[0] as f64, d[1] as f64);
+                let scale = (dx.abs() + dy.abs()) * (tx.abs() + ty.abs()) + 1.0;
+                assert!(
+                    (dx * ty - dy * tx).abs() <= 1e-9 * scale,
+                    "{c:?}, v = {v}, {q:?}"
+                );
+                assert!(dx * tx + dy * ty > 0.0, "{c:?}, v = {v}, {q:?}");
+            }
+        }
+        assert!(classes[1..].iter().all(|&n| n > 20), "{classes:?}");
     }
 }

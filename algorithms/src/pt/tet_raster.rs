@@ -29,7 +29,7 @@
 //!
 //! [`raster_fan`]: super::raster_fan
 
-use super::raster::{floor_i64, Edge};
+use super::raster::{dir_from_thick, floor_i64, Edge};
 use super::{pixel_box_in, pixel_centre, Case, Fragment};
 
 /// Fan edges at most (class 2: four triangles, five fan edges).
@@ -219,15 +219,13 @@ pub struct TetRow {
     pub g: [i64; MAX_FAN],
 }
 
-/// The direction of each fan edge k ≤ ntri of table entry `c` (from the thick vertex, as
-/// [`dir_from_thick`](super::raster::dir_from_thick), by the table's anchors; entries past
-/// ntri are 0).
+/// The direction of each fan edge k ≤ ntri of table entry `c` (from the thick vertex; entries
+/// past ntri are 0).
 #[inline(always)]
 pub(super) fn fan_dirs(c: &Case, q: &[[i64; 2]; 4]) -> [[i64; 2]; MAX_FAN] {
     std::array::from_fn(|k| {
         if k <= c.ntri as usize {
-            let (v, a) = (q[c.fan[k] as usize], q[c.anchor[k] as usize]);
-            [v[0] - a[0], v[1] - a[1]]
+            dir_from_thick(c, q, c.fan[k] as usize)
         } else {
             [0, 0]
         }
@@ -465,34 +463,5 @@ pub(super) fn assert_spans_are_rows(r: TetRaster) {
     #[cfg(target_arch = "x86_64")]
     if let Some(simd) = pulp::x86::V3::try_new() {
         assert_eq!(simd.vectorize(|| spans(simd, r)), rows);
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::super::raster::dir_from_thick;
-    use super::super::TABLE;
-    use super::*;
-
-    /// The table's anchors give every drawn entry's fan edges the directions `dir_from_thick`
-    /// chooses, on random snapped vertices.
-    #[test]
-    fn fan_dirs_are_dir_from_thick() {
-        let mut rng = super::super::tests::Rng::new(5);
-        let mut drawn = 0;
-        for c in TABLE.iter().filter(|c| c.drawn()) {
-            drawn += 1;
-            for _ in 0..20 {
-                let q: [[i64; 2]; 4] = std::array::from_fn(|_| {
-                    std::array::from_fn(|_| (rng.f() * 1e6) as i64 - 500_000)
-                });
-                let dirs = fan_dirs(c, &q);
-                for (k, d) in dirs.iter().enumerate().take(c.ntri as usize + 1) {
-                    let want = dir_from_thick(c, &q, c.fan[k] as usize);
-                    assert_eq!(*d, want, "{c:?}, k = {k}");
-                }
-            }
-        }
-        assert_eq!(drawn, 50);
     }
 }

@@ -275,7 +275,6 @@ impl<V: Copy> SpanSet<V> {
         let (gst1, gst0, gsr1, gsr0) = (four(&gst, 1), four(&gst, 0), four(&gsr, 1), four(&gsr, 0));
         let nix: [f64; 4] = std::array::from_fn(|t| -tr.inv_x[t]);
         let (mut v0, mut dy, mut dx) = ([0.0f64; 12], [0.0f64; 12], [0.0f64; 12]);
-        let mut step = [0.0f32; 12];
         for ch in 0..3 {
             let (ex, ey): ([f64; 4], [f64; 4]) = if ch < 2 {
                 (sx.map(|v| v - thick[ch]), sy.map(|v| v - thick[ch]))
@@ -307,16 +306,13 @@ impl<V: Copy> SpanSet<V> {
                 co[i] = simd.mul_f64s(col, sgn);
             }
         }
-        for (s, &d) in step.iter_mut().zip(&dx) {
-            *s = d as f32;
-        }
         // Splats in plain loops, not `array::map`: a closure does not inherit the target
         // features of the function it sits in, and when the compiler leaves it out of line (as
         // it did with 16 codegen units after an unrelated change) every splat became a call and
         // the draw ran 1.48× slower (docs/performance.md, fifteenth pass).
         let mut stepv = [simd.splat_f32s(0.0); 12];
-        for (v, &s) in stepv.iter_mut().zip(&step) {
-            *v = simd.splat_f32s(s);
+        for (v, &d) in stepv.iter_mut().zip(&dx) {
+            *v = simd.splat_f32s(d as f32);
         }
         SpanSet {
             v0,

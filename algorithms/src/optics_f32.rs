@@ -21,6 +21,7 @@ use crate::optics::{PreintTable, PsiTable};
 use crate::tf::TransferFunction;
 
 mod colour;
+mod tf_lanes;
 mod tf_lines;
 pub(crate) use colour::colour_lanes_n;
 pub use colour::{segment_from_colours, shade_colours, ColourBatch};

@@ -30,6 +30,7 @@ pub(super) struct Queue<'a> {
 
 /// A vector of lanes the span kernel hands the queue: the ends' scalars and the length, and how
 /// many of its lanes are fragments.
+#[derive(Clone, Copy)]
 pub(super) struct Lanes<V> {
     pub(super) sf: V,
     pub(super) sb: V,
@@ -130,18 +131,12 @@ impl<'a> Queue<'a> {
                 put(&mut self.col.l, v.l);
             }
             (Some((tf, _)), None) => {
-                let mut tmp = [[0.0f32; 16]; 3];
-                for (t, x) in tmp.iter_mut().zip([v.sf, v.sb, v.l]) {
-                    S::as_mut_simd_f32s(&mut t[..lanes.min(16)]).0[0] = x;
-                }
-                let [sf, sb, l] = &tmp;
-                for (j, ((&f, &b), &l)) in sf.iter().zip(sb).zip(l).take(v.count).enumerate() {
-                    let (cf, cb, l) = colours(tf, None, f, b, l);
-                    for c in 0..4 {
-                        self.col.cf[c][at + j] = cf[c];
-                        self.col.cb[c][at + j] = cb[c];
-                    }
-                    self.col.l[at + j] = l;
+                if lanes <= 4 {
+                    self.table_lanes::<S, 4>(tf, v, at);
+                } else if lanes <= 8 {
+                    self.table_lanes::<S, 8>(tf, v, at);
+                } else {
+                    self.table_lanes::<S, 16>(tf, v, at);
                 }
             }
         }
@@ -149,6 +144,38 @@ impl<'a> Queue<'a> {
             *p = p0.wrapping_add(j as u16);
         }
         self.len += v.count;
+    }
+
+    /// The table's colours at both ends of a vector's lanes, from slot `at` on (all `S`'s
+    /// lanes written; `N` ≥ its lanes): [`colours`] lane-wise, without a line.
+    #[inline(always)]
+    fn table_lanes<S: pulp::Simd, const N: usize>(
+        &mut self,
+        tf: &TfTable,
+        v: Lanes<S::f32s>,
+        at: usize,
+    ) {
+        let lanes = S::F32_LANES.min(N);
+        let mut ends = [[0.0f32; N]; 3];
+        for (e, x) in ends.iter_mut().zip([v.sf, v.sb, v.l]) {
+            S::as_mut_simd_f32s(&mut e[..S::F32_LANES]).0[0] = x;
+        }
+        let [sf, sb, l] = &ends;
+        let (mut cf, mut cb) = ([[0.0f32; N]; 4], [[0.0f32; N]; 4]);
+        tf.eval_lanes(sf, &mut cf);
+        tf.eval_lanes(sb, &mut cb);
+        // A non-finite scalar at either end: no contribution (as `colours`). Length 0 is
+        // enough: the colour kernel gives such a segment 0 whatever its colours.
+        let mut lv = [0.0f32; N];
+        for k in 0..N {
+            let ok = sf[k].is_finite() && sb[k].is_finite();
+            lv[k] = if ok { l[k] } else { 0.0 };
+        }
+        for c in 0..4 {
+            self.col.cf[c][at..at + lanes].copy_from_slice(&cf[c][..lanes]);
+            self.col.cb[c][at..at + lanes].copy_from_slice(&cb[c][..lanes]);
+        }
+        self.col.l[at..at + lanes].copy_from_slice(&lv[..lanes]);
     }
 
     /// Shades the queued fragments and composites them into `buf` in queue order.

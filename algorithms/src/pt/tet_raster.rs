@@ -154,10 +154,36 @@ impl SilEdges {
             // (Four lanes split into whole vectors: the case above took the wider ones.)
             debug_assert!(kt.is_empty());
         }
+        #[cfg(target_arch = "x86_64")]
+        if let Some(&v3) = (&simd as &dyn std::any::Any).downcast_ref::<pulp::x86::V3>() {
+            return bounds_of_lanes_v3(v3, &lo, &up, last);
+        }
         let a = lo.iter().fold(0, |a, &x| a.max(x));
         let b = up.iter().fold(last, |b, &x| b.min(x));
         (a, b)
     }
+}
+
+/// `(max(0, lo…), min(last, up…))` of four i64 lanes each, in AVX2 registers: both maxima at
+/// once (`min(up) = −max(−up)`) by two steps of compare and blend (AVX2 has no 64-bit max).
+/// Stored and folded lane by lane, these were ~40 instructions a row (2.8 % of a post draw);
+/// the values are integers, so the result is the fold's.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn bounds_of_lanes_v3(v3: pulp::x86::V3, lo: &[i64; 4], up: &[i64; 4], last: i64) -> (i64, i64) {
+    use std::arch::x86_64::__m256i;
+    let x2 = v3.avx2;
+    let l: __m256i = bytemuck::cast(*lo);
+    let nu = x2._mm256_sub_epi64(bytemuck::cast([0i64; 4]), bytemuck::cast(*up));
+    let max = |a: __m256i, b: __m256i| x2._mm256_blendv_epi8(a, b, x2._mm256_cmpgt_epi64(b, a));
+    // [lo0 lo1 nu0 nu1] against [lo2 lo3 nu2 nu3], then each 128-bit half against its swap.
+    let m = max(
+        x2._mm256_permute2x128_si256::<0x20>(l, nu),
+        x2._mm256_permute2x128_si256::<0x31>(l, nu),
+    );
+    let m = max(m, x2._mm256_shuffle_epi32::<0x4E>(m));
+    let m: [i64; 4] = bytemuck::cast(m);
+    (m[0].max(0), (-m[2]).min(last))
 }
 
 /// The first `k` with `h + k·st > 0` (`st > 0`, `inv = 1/st`): `⌊−h/st⌋ + 1`, from an f64

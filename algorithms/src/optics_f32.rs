@@ -352,32 +352,41 @@ fn partial_lanes(tf: &TfTable, psi: &PsiTable, b: &mut ShadeBatch) {
     b.out = c.out;
 }
 
-/// The bilinear part of [`psi_lookup`] at table coordinates `ga`, `gb` (γ·(n − 1)).
+/// The bilinear part of [`psi_lookup`] at table coordinates `ga`, `gb` (γ·(n − 1)), for a
+/// table of at most [`PSI_F32_INDEX`] entries a side.
 #[inline(always)]
 fn psi_at(t: &PsiTable, ga: f32, gb: f32) -> f32 {
     let n = t.size();
-    let last = (n - 2) as i32;
-    // `(g as i32).clamp(0, last)` as floats, the same value for every g (NaN included: 0),
-    // and its bits as an integer by the 2²³ trick (0 ≤ i < 2²³): the saturating `as i32` and
-    // the integer clamp had no vector form and were a quarter of the colour kernel.
-    let top = last as f32;
-    let coord = |g: f32| {
+    // `(g as i32).clamp(0, n − 2)` as floats, the same value for every g (NaN included: 0):
+    // the saturating `as i32` and the integer clamp had no vector form and were a quarter of
+    // the colour kernel.
+    let top = (n - 2) as f32;
+    let corner = |g: f32| {
         let x = g.floor();
         let x = if x > 0.0 { x } else { 0.0 };
-        let x = if x < top { x } else { top };
-        let i = ((x + 8_388_608.0).to_bits() - 8_388_608f32.to_bits()) as usize;
-        (i, g - x)
+        if x < top {
+            x
+        } else {
+            top
+        }
     };
-    let (i, ti) = coord(ga);
-    let (j, tj) = coord(gb);
+    let (x, y) = (corner(ga), corner(gb));
+    // The row-major index y·n + x, a float below n² ≤ 2²³ (so exact), and its bits as an
+    // integer by the 2²³ trick: the index as 64-bit integer products was a scalar multiply
+    // and add a lane (2.5 % of a post draw's instructions).
+    let r0 = ((y * n as f32 + x + 8_388_608.0).to_bits() - 8_388_608f32.to_bits()) as usize;
+    let r1 = r0 + n;
+    let (ti, tj) = (ga - x, gb - y);
     let d = t.data();
-    let (r0, r1) = (j * n + i, (j + 1) * n + i);
-    // SAFETY: i, j ≤ n − 2, so r1 + 1 ≤ n² − 1 < d.len() (asserted by the caller).
+    // SAFETY: x, y ≤ n − 2, so r1 + 1 ≤ n² − 1 < d.len() (asserted by the caller).
     let g = |k: usize| unsafe { *d.get_unchecked(k) };
     let v0 = g(r0) + (g(r0 + 1) - g(r0)) * ti;
     let v1 = g(r1) + (g(r1 + 1) - g(r1)) * ti;
     v0 + (v1 - v0) * tj
 }
+
+/// The largest Ψ table side [`psi_at`] takes: its index, a float, is exact below 2²³.
+pub(crate) const PSI_F32_INDEX: usize = 2896;
 
 /// Bilinear Ψ at the end depths `fa`, `fb` (≥ 0), as [`PsiTable::lookup`].
 #[inline(always)]

@@ -9,7 +9,7 @@
 //! [`shade_colours`] is it lane-wise with the same operations (the same bits: a test holds
 //! them equal).
 
-use super::{exp_neg, finite, psi_at, tau_len, PsiTable, BATCH};
+use super::{exp_neg, finite, psi_at, tau_len, PsiTable, BATCH, PSI_F32_INDEX};
 
 /// A batch of segments given by their colours: `[r, g, b, τ]` at the front (`cf`) and back
 /// (`cb`) ends and the length `l`; premultiplied `[r, g, b, α]` out, structure of arrays.
@@ -92,8 +92,13 @@ pub(crate) fn colour_lanes_n<const N: usize>(
     l: &[f32; N],
     out: &mut [[f32; N]; 4],
 ) {
-    // What the unchecked loads of `psi_at` rely on.
+    // What the unchecked loads and the float index of `psi_at` rely on (the table is
+    // `PsiTable::DEFAULT_SIZE`, 512, a side).
     assert!(psi.size() >= 2 && psi.data().len() >= psi.size().pow(2));
+    assert!(
+        psi.size() <= PSI_F32_INDEX,
+        "Ψ table too large for the f32 kernels"
+    );
     let m = (psi.size() - 1) as f32;
     // Pass 1 hands its values on in `out`'s planes, each read at lane k before lane k is
     // written: `zeta` in plane 0, NaN for an invalid lane (a valid lane's is finite), the Ψ

@@ -32,7 +32,7 @@
 //!
 //! **Memory.** `prepare` keeps the centred f32 positions and the f32 transfer-function
 //! coordinate per vertex (16 bytes a vertex) and the integrator's tables. The per-frame scratch
-//! (16 bytes a vertex, 72 a tet, 4 a tet for the order, 4 per tet-tile pair for the bins) is
+//! (32 bytes a vertex, 72 a tet, 4 a tet for the order, 4 per tet-tile pair for the bins) is
 //! allocated on the first frame and reused; its size is the `scratch_bytes` counter.
 
 use std::time::Instant;

@@ -53,13 +53,8 @@ mod tests {
     /// scalars, on and around the samples, at the domain's ends and beyond them, and at ±∞.
     #[test]
     fn tf_eval_lanes_is_eval() {
-        let mut seed = 3u64;
-        let mut rnd = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut rng = crate::pt::tests::Rng::new(3);
+        let mut rnd = || rng.f() as f32;
         for name in crate::tf::PRESETS {
             let tf = TransferFunction::preset(name).unwrap();
             let t = TfTable::new(&tf, TF_SAMPLES);

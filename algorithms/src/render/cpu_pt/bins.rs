@@ -60,9 +60,9 @@ impl Bins {
                 cnt.resize(ntiles, 0);
                 for i in ids.clone() {
                     let r = rects[id(i) as usize];
-                    for ty in r[1]..=r[3] {
+                    for ty in r[1]..r[3] + 1 {
                         let row = ty as usize * ntx;
-                        for tx in r[0]..=r[2] {
+                        for tx in r[0]..r[2] + 1 {
                             cnt[row + tx as usize] += 1;
                         }
                     }
@@ -91,9 +91,9 @@ impl Bins {
                 for i in ids.clone() {
                     let t = id(i);
                     let r = rects[t as usize];
-                    for ty in r[1]..=r[3] {
+                    for ty in r[1]..r[3] + 1 {
                         let row = ty as usize * ntx;
-                        for tx in r[0]..=r[2] {
+                        for tx in r[0]..r[2] + 1 {
                             let o = &mut off[row + tx as usize];
                             // SAFETY: chunk c's pairs of tile k go to
                             // [offset(k, c), offset(k, c + 1)), disjoint from every other

@@ -357,24 +357,12 @@ fn partial_lanes(tf: &TfTable, psi: &PsiTable, b: &mut ShadeBatch) {
 #[inline(always)]
 fn psi_at(t: &PsiTable, ga: f32, gb: f32) -> f32 {
     let n = t.size();
-    // `(g as i32).clamp(0, n − 2)` as floats, the same value for every g (NaN included: 0):
-    // the saturating `as i32` and the integer clamp had no vector form and were a quarter of
-    // the colour kernel.
     let top = (n - 2) as f32;
-    let corner = |g: f32| {
-        let x = g.floor();
-        let x = if x > 0.0 { x } else { 0.0 };
-        if x < top {
-            x
-        } else {
-            top
-        }
-    };
-    let (x, y) = (corner(ga), corner(gb));
-    // The row-major index y·n + x, a float below n² ≤ 2²³ (so exact), and its bits as an
-    // integer by the 2²³ trick: the index as 64-bit integer products was a scalar multiply
-    // and add a lane (2.5 % of a post draw's instructions).
-    let r0 = ((y * n as f32 + x + 8_388_608.0).to_bits() - 8_388_608f32.to_bits()) as usize;
+    let (x, y) = (floor_in(ga, top), floor_in(gb, top));
+    // The row-major index y·n + x, a float below n² ≤ 2²³ (so exact), as an integer: the
+    // index as 64-bit integer products was a scalar multiply and add a lane (2.5 % of a post
+    // draw's instructions).
+    let r0 = float_index(y * n as f32 + x) as usize;
     let r1 = r0 + n;
     let (ti, tj) = (ga - x, gb - y);
     let d = t.data();
@@ -383,6 +371,27 @@ fn psi_at(t: &PsiTable, ga: f32, gb: f32) -> f32 {
     let v0 = g(r0) + (g(r0 + 1) - g(r0)) * ti;
     let v1 = g(r1) + (g(r1 + 1) - g(r1)) * ti;
     v0 + (v1 - v0) * tj
+}
+
+/// `(g as i32).clamp(0, top)` as a float (`top` a whole number), the same value for every g
+/// (NaN included: 0): the saturating `as i32` and the integer clamp have no vector form (they
+/// were a quarter of the colour kernel); two float selects do.
+#[inline(always)]
+fn floor_in(g: f32, top: f32) -> f32 {
+    let x = g.floor();
+    let x = if x > 0.0 { x } else { 0.0 };
+    if x < top {
+        x
+    } else {
+        top
+    }
+}
+
+/// The whole number `x` (0 ≤ x < 2²³) as an integer, from its bits by the 2²³ trick: a vector
+/// addition and subtraction, where `as u32` is a scalar conversion a lane.
+#[inline(always)]
+fn float_index(x: f32) -> u32 {
+    (x + 8_388_608.0).to_bits() - 8_388_608f32.to_bits()
 }
 
 /// The largest Ψ table side [`psi_at`] takes: its index, a float, is exact below 2²³.

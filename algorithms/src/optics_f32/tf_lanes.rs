@@ -1,13 +1,13 @@
 //! The transfer-function table looked up a vector of lanes at a time, for `cpu-pt`'s
 //! fragments whose tet has no line ([`TfTable::line_over`]): `render/cpu_pt/queue.rs`.
 
-use super::TfTable;
+use super::{float_index, floor_in, TfTable};
 
 impl TfTable {
     /// [`TfTable::eval`] at `N` scalars (`N` a multiple of 4), channel-major: `out[c][k]` is
     /// channel `c` at `s[k]`, with `eval`'s operations on each value, so its bits (a NaN `s`,
     /// which `eval` is not given, gives NaN here too). The sample index and weight are computed
-    /// a vector at a time (floor and the 2²³ trick, as `psi_at`); each value is then one
+    /// a vector at a time ([`floor_in`] and [`float_index`], as `psi_at`); each value is then one
     /// 16-byte lerp, and four are turned into the channel planes by a 4×4 transpose: the
     /// lane-by-lane `eval` took ~95 instructions a `partial` fragment on this path.
     #[inline(always)]
@@ -18,12 +18,9 @@ impl TfTable {
         let (mut idx, mut t) = ([0u32; N], [0.0f32; N]);
         for k in 0..N {
             let x = ((s[k] - self.lo) * self.scale).clamp(0.0, self.max);
-            // `(x as i32 as usize).min(len − 2)` as a float (x ≥ 0: floor is the truncation),
-            // the same for every x (NaN: 0), then its bits as an integer (0 ≤ i < 2²³).
-            let i = x.floor();
-            let i = if i > 0.0 { i } else { 0.0 };
-            let i = if i < top { i } else { top };
-            idx[k] = (i + 8_388_608.0).to_bits() - 8_388_608f32.to_bits();
+            // `(x as i32 as usize).min(len − 2)` (x ≥ 0: floor is the truncation; NaN: 0).
+            let i = floor_in(x, top);
+            idx[k] = float_index(i);
             t[k] = x - i;
         }
         let d = &self.data[..];

@@ -259,7 +259,7 @@ impl Renderer for CpuPt {
         // written in the visibility order, see the module docs). The stages are timed apart.
         let mut sc = std::mem::take(&mut self.scratch);
         let mut order = std::mem::take(&mut sc.order);
-        let mut project_ms = 0.0;
+        let (mut project_ms, mut drawn_records) = (0.0, None);
         if fast.is_none() {
             let t0 = Instant::now();
             project::project(st, mesh, camera, None, &mut sc);
@@ -274,7 +274,7 @@ impl Renderer for CpuPt {
         let fast = st.shading.f32().filter(|_| !persp);
         if fast.is_some() {
             let t0 = Instant::now();
-            project::project(st, mesh, camera, Some(&order), &mut sc);
+            drawn_records = project::project(st, mesh, camera, Some(&order), &mut sc);
             project_ms = ms_since(t0);
         }
         sc.order = order;
@@ -288,17 +288,13 @@ impl Renderer for CpuPt {
         bins.build(ids, &sc.rects, ntx as usize, ntiles);
         let bin_ms = ms_since(t2);
         // Of the tets in the order (a skipping sort leaves some out: `tets_skipped`).
-        let drawn = if fast.is_some() {
-            sc.fast
-                .iter()
-                .filter(|f| TABLE[f.case as usize].drawn())
-                .count()
-        } else {
+        // (The fast path's project stage counted its records.)
+        let drawn = drawn_records.unwrap_or_else(|| {
             sc.order
                 .iter()
                 .filter(|&&t| TABLE[sc.tets[t as usize].thick.case as usize].drawn())
                 .count()
-        };
+        });
         let pairs = bins.items.len();
         let tiles: Vec<(Vec<[f32; 4]>, u64)> = match (fast, &st.shading) {
             (Some(integ), _) => bins.per_tile(ntiles, |k| {

@@ -43,14 +43,16 @@ pub(super) const NO_TILES: TileRect = [1, 1, 0, 0];
 /// Projects and classifies `mesh` for `camera` into `sc`: `verts`, and either (`order`: the
 /// fast path) a record and a tile range per place of the visibility order (`fast[i]` and
 /// `rects[i]` for tet `order[i]`), or every tet's classification and tile range in mesh order
-/// (`tets`, `rects`).
+/// (`tets`, `rects`). On the fast path, returns how many of the records are of a drawn class
+/// (counted here, in parallel, rather than by a serial pass over the records afterwards: 1.4 ms
+/// of post's frame at 512²); the general path's drawn tets are counted over the order.
 pub(super) fn project(
     st: &Prepared,
     mesh: &Mesh,
     camera: &Camera,
     order: Option<&[u32]>,
     sc: &mut Scratch,
-) {
+) -> Option<usize> {
     let (w, h) = (camera.width, camera.height);
     let persp = camera.projection == Projection::Persp;
     st.pos
@@ -108,10 +110,11 @@ pub(super) fn project(
         // asks for the tet `AHEAD` places ahead, and for the vertices of the one half as far
         // ahead (whose tet was asked for then).
         const AHEAD: usize = 16;
-        order
+        let drawn = order
             .par_chunks(CHUNK)
             .zip(fr.par_chunks_mut(CHUNK).zip(rects.par_chunks_mut(CHUNK)))
-            .for_each(|(ids, (fr, rects))| {
+            .map(|(ids, (fr, rects))| {
+                let mut drawn = 0;
                 for (n, (&t, (f, r))) in ids.iter().zip(fr.iter_mut().zip(rects)).enumerate() {
                     if let Some(&a) = ids.get(n + AHEAD) {
                         prefetch(&tets[a as usize]);
@@ -130,11 +133,9 @@ pub(super) fn project(
                     let s = vp.map(|v| v.s);
                     let (case, [sf, sb, l]) =
                         classify_ortho(&q, &vp.map(|v| v.z), &p, &s.map(f64::from), st.inv_l);
-                    *r = if TABLE[case as usize].drawn() {
-                        tiles_of(pixel_box(&q))
-                    } else {
-                        NO_TILES
-                    };
+                    let is_drawn = TABLE[case as usize].drawn();
+                    drawn += is_drawn as usize;
+                    *r = if is_drawn { tiles_of(pixel_box(&q)) } else { NO_TILES };
                     *f = FastRec {
                         q: vp.map(|v| v.q),
                         s,
@@ -144,7 +145,10 @@ pub(super) fn project(
                         case,
                     };
                 }
-            });
+                drawn
+            })
+            .sum();
+        Some(drawn)
     } else {
         sc.fast = Vec::new();
         sc.tets.resize(mesh.num_tets(), TetProj::default());
@@ -158,5 +162,6 @@ pub(super) fn project(
                 *r = tiles;
                 *p = TetProj { thick };
             });
+        None
     }
 }

@@ -38,6 +38,9 @@ pub(super) trait Shade: Sync {
 /// Segments a ray queues before it shades them at once ([`Shade::segments`]).
 pub(super) const QUEUE: usize = 8;
 
+/// Lanes `partial`'s colour kernel runs on for a queue (see [`PartialLanes`]).
+const KERNEL_LANES: usize = 16;
+
 /// A ray's queued segments as the run of crossings they join: segment `k` runs from
 /// `ends[k]` to `ends[k + 1]` with optical length `l[k]`. Consecutive segments share their
 /// crossing, so each crossing is stored once (`ends[n]` is the front of the segment to come).
@@ -344,12 +347,19 @@ impl pulp::WithSimd for PartialLanes<'_> {
         let (e0, cb) = self.rc.tf.colours(q.ends[0], &backs, q.n);
         let cf: [[f32; QUEUE]; 4] =
             std::array::from_fn(|c| std::array::from_fn(|k| if k == 0 { e0[c] } else { cb[c][k - 1] }));
-        let l = q.l.map(|l| l as f32);
-        let mut o = [[0.0f32; QUEUE]; 4];
+        // The kernel on KERNEL_LANES lanes, the queue's in the first ones and length 0 (no
+        // contribution, not read) in the rest: LLVM's loop vectoriser leaves a loop of fewer
+        // than 16 iterations alone, and on 8 lanes the kernel was scalar.
+        let pad = |a: &[f32; QUEUE]| -> [f32; KERNEL_LANES] {
+            std::array::from_fn(|k| if k < QUEUE { a[k] } else { 0.0 })
+        };
+        let (cf, cb) = (cf.each_ref().map(pad), cb.each_ref().map(pad));
+        let l = pad(&q.l.map(|l| l as f32));
+        let mut o = [[0.0f32; KERNEL_LANES]; 4];
         colour_lanes_n(self.rc.p.table(), &cf, &cb, &l, &mut o);
         Lanes {
-            rgb: std::array::from_fn(|c| o[c].map(f64::from)),
-            alpha: o[3].map(f64::from),
+            rgb: std::array::from_fn(|c| std::array::from_fn(|k| o[c][k] as f64)),
+            alpha: std::array::from_fn(|k| o[3][k] as f64),
         }
     }
 }

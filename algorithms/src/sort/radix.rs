@@ -53,15 +53,22 @@ impl Sort for RadixSort {
                 .enumerate()
                 .map(|(t, c)| ((desc_bits(kf.key(c)) as u64) << 32) | t as u64),
         );
-        radix_sort_hi32(&mut self.a, &mut self.b);
-        order.clear();
-        order.extend(self.a.iter().map(|&x| x as u32));
+        radix_sort_into(&mut self.a, &mut self.b, Some(order));
         Ok(SortStats::default())
     }
 }
 
 /// Stable LSD radix sort of `v` by its high 32 bits; `tmp` is scratch.
+#[cfg(test)]
 pub(crate) fn radix_sort_hi32(v: &mut Vec<u64>, tmp: &mut Vec<u64>) {
+    radix_sort_into(v, tmp, None);
+}
+
+/// Stable LSD radix sort of `v` by its high 32 bits (`tmp` is scratch); with `order`, the
+/// sorted pairs' low 32 bits go there, written by the last pass that moves anything (one
+/// pass over the keys fewer than sorting `v` and then copying them out; `v` is then left as
+/// that pass found it).
+pub(super) fn radix_sort_into(v: &mut Vec<u64>, tmp: &mut Vec<u64>, mut order: Option<&mut Vec<u32>>) {
     let n = v.len();
     let mut hist = [[0usize; BUCKETS]; PASSES];
     for &x in v.iter() {
@@ -70,12 +77,12 @@ pub(crate) fn radix_sort_hi32(v: &mut Vec<u64>, tmp: &mut Vec<u64>) {
             h[((k >> (BITS * p as u32)) as usize) & (BUCKETS - 1)] += 1;
         }
     }
+    // A pass whose digit is the same for every key would not move anything.
+    let moves: Vec<usize> = (0..PASSES).filter(|&p| !hist[p].contains(&n)).collect();
     tmp.clear();
     tmp.resize(n, 0);
-    for (p, h) in hist.iter_mut().enumerate() {
-        if h.contains(&n) {
-            continue; // every key has the same digit: the pass would not move anything
-        }
+    for (k, &p) in moves.iter().enumerate() {
+        let h = &mut hist[p];
         let mut sum = 0;
         for c in h.iter_mut() {
             let x = *c;
@@ -83,11 +90,31 @@ pub(crate) fn radix_sort_hi32(v: &mut Vec<u64>, tmp: &mut Vec<u64>) {
             sum += x;
         }
         let shift = 32 + BITS * p as u32;
-        for &x in v.iter() {
-            let d = ((x >> shift) as usize) & (BUCKETS - 1);
-            tmp[h[d]] = x;
-            h[d] += 1;
+        let digit = |x: u64| ((x >> shift) as usize) & (BUCKETS - 1);
+        match order.as_deref_mut() {
+            Some(o) if k + 1 == moves.len() => {
+                o.clear();
+                o.resize(n, 0);
+                for &x in v.iter() {
+                    let d = digit(x);
+                    o[h[d]] = x as u32;
+                    h[d] += 1;
+                }
+                return;
+            }
+            _ => {
+                for &x in v.iter() {
+                    let d = digit(x);
+                    tmp[h[d]] = x;
+                    h[d] += 1;
+                }
+                std::mem::swap(v, tmp);
+            }
         }
-        std::mem::swap(v, tmp);
+    }
+    // No pass moved anything (or no order was asked for): the pairs are sorted in `v`.
+    if let Some(o) = order {
+        o.clear();
+        o.extend(v.iter().map(|&x| x as u32));
     }
 }

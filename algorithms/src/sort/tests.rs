@@ -4,7 +4,7 @@ use glam::DVec3;
 
 use super::bucket::slab;
 use super::centroid::farthest_first;
-use super::radix::radix_sort_hi32;
+use super::radix::{radix_sort_hi32, radix_sort_into};
 use super::*;
 use crate::camera::{fibonacci_views, Camera, Projection, View};
 use crate::io::split::{hex_corner, hex_split_pattern};
@@ -436,5 +436,35 @@ fn throughput() {
                 setup
             );
         }
+    }
+}
+
+/// The order the radix sort writes from its last moving pass is the sorted pairs' tets: with
+/// keys that differ in every digit, in the first digit only, in the last only (so that the
+/// first or the last pass writes it), and in none (no pass moves: the tets in index order).
+#[test]
+fn radix_order_from_the_last_pass_is_the_sorted_pairs() {
+    let mut x = 2024u32;
+    let mut rnd = move || {
+        x = x.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        x
+    };
+    // Per case, the key bits kept from a random number and the constant the rest is set to.
+    let cases = [
+        ("every digit", u32::MAX, 0),
+        ("first digit", 0x7ff, 0x5555_5000),
+        ("last digit", 0xffc0_0000, 0x0012_3456),
+        ("no digit", 0, 0x1234_5678),
+    ];
+    for (name, mask, rest) in cases {
+        let packed: Vec<u64> = (0..3000u64)
+            .map(|i| ((((rnd() & mask) | rest) as u64) << 32) | i)
+            .collect();
+        let mut want = packed.clone();
+        want.sort_unstable();
+        let want: Vec<u32> = want.iter().map(|&p| p as u32).collect();
+        let (mut v, mut order) = (packed, vec![7u32; 5]);
+        radix_sort_into(&mut v, &mut Vec::new(), Some(&mut order));
+        assert_eq!(order, want, "{name}");
     }
 }

@@ -380,7 +380,8 @@ fn span_rows<S: pulp::Simd, const NT: usize>(
             // each row stored them to the stack and each vector loaded them back. `black_box`
             // keeps them here (post's draw 1 355.7 M → 1 306.9 M instructions, the same bits).
             let b32 = std::hint::black_box(&b32);
-            let x = simd.add_f32s(iota, simd.splat_f32s((c * lanes) as f32));
+            // (Through i32, below the tile's width: `usize as f32` tests the sign first.)
+            let x = simd.add_f32s(iota, simd.splat_f32s((c * lanes) as i32 as f32));
             let plane = |ch: usize, k: usize| {
                 simd.mul_add_f32s(x, stepv[ch * 4 + k], simd.splat_f32s(b32[ch * 4 + k]))
             };

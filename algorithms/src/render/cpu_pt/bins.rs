@@ -56,17 +56,24 @@ impl Bins {
             .par_iter_mut()
             .zip(&chunks)
             .for_each(|(cnt, ids)| {
+                // Four counters a tile, taken in turn by consecutive tets, then summed:
+                // consecutive tets mostly fall in one tile, and a single counter made each
+                // increment wait on the one before (~16 cycles a tet on post).
                 cnt.clear();
-                cnt.resize(ntiles, 0);
-                for i in ids.clone() {
+                cnt.resize(ntiles * LANES, 0);
+                for (m, i) in ids.clone().enumerate() {
                     let r = rects[id(i) as usize];
                     for ty in r[1]..r[3] + 1 {
                         let row = ty as usize * ntx;
                         for tx in r[0]..r[2] + 1 {
-                            cnt[row + tx as usize] += 1;
+                            cnt[(row + tx as usize) * LANES + m % LANES] += 1;
                         }
                     }
                 }
+                for k in 0..ntiles {
+                    cnt[k] = cnt[k * LANES..(k + 1) * LANES].iter().sum();
+                }
+                cnt.truncate(ntiles);
             });
         self.start.clear();
         self.start.resize(ntiles + 1, 0);
@@ -106,6 +113,9 @@ impl Bins {
             });
     }
 }
+
+/// Counters a tile in [`Bins::build`]'s counting pass.
+const LANES: usize = 4;
 
 /// The bins' output array, written by several threads at disjoint indices.
 struct SharedOut(*mut u32);

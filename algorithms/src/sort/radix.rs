@@ -78,11 +78,14 @@ pub(super) fn radix_sort_into(v: &mut Vec<u64>, tmp: &mut Vec<u64>, mut order: O
         }
     }
     // A pass whose digit is the same for every key would not move anything.
-    let moves: Vec<usize> = (0..PASSES).filter(|&p| !hist[p].contains(&n)).collect();
+    let moves = |h: &[usize; BUCKETS]| !h.contains(&n);
+    let last = (0..PASSES).rev().find(|&p| moves(&hist[p]));
     tmp.clear();
     tmp.resize(n, 0);
-    for (k, &p) in moves.iter().enumerate() {
-        let h = &mut hist[p];
+    for (p, h) in hist.iter_mut().enumerate() {
+        if !moves(h) {
+            continue;
+        }
         let mut sum = 0;
         for c in h.iter_mut() {
             let x = *c;
@@ -92,7 +95,7 @@ pub(super) fn radix_sort_into(v: &mut Vec<u64>, tmp: &mut Vec<u64>, mut order: O
         let shift = 32 + BITS * p as u32;
         let digit = |x: u64| ((x >> shift) as usize) & (BUCKETS - 1);
         match order.as_deref_mut() {
-            Some(o) if k + 1 == moves.len() => {
+            Some(o) if Some(p) == last => {
                 o.clear();
                 o.resize(n, 0);
                 for &x in v.iter() {

@@ -180,13 +180,6 @@ impl CpuPt {
     pub fn set_fast_path(&mut self, on: bool) {
         self.fast = on;
     }
-
-    /// The visibility order, back to front (farthest first), into `order`; returns the number
-    /// of cells in visibility cycles (0 but for MPVONC on cyclic configurations).
-    fn order(&mut self, mesh: &Mesh, camera: &Camera, order: &mut Vec<u32>) -> Result<usize> {
-        self.sort_stats = self.sort.sort(mesh, camera, order)?;
-        Ok(self.sort_stats.cells_in_cycles)
-    }
 }
 
 impl Renderer for CpuPt {
@@ -255,27 +248,45 @@ impl Renderer for CpuPt {
         let fast = st.shading.f32().filter(|_| !persp);
         let (ntx, nty) = (w.div_ceil(TILE), h.div_ceil(TILE));
 
-        // 1. Project and classify; 2. sort (the fast path sorts first: its records are
-        // written in the visibility order, see the module docs). The stages are timed apart.
+        // 1. Project and classify; 2. sort. The sort runs on this thread while the pool
+        // projects the vertices beside it (and, on the general path, classifies the tets too);
+        // the fast path classifies its tets after the sort, writing each record at its place in
+        // the order (see the module docs). `sort_ms` is the sort's own time and `project_ms`
+        // the project stage's wall time beyond it, so the stages still add up to the frame.
         let mut sc = std::mem::take(&mut self.scratch);
         let mut order = std::mem::take(&mut sc.order);
-        let (mut project_ms, mut drawn_records) = (0.0, None);
-        if fast.is_none() {
-            let t0 = Instant::now();
-            project::project(st, mesh, camera, None, &mut sc);
-            project_ms = ms_since(t0);
-        }
+        let sorter = &mut self.sort;
         let t1 = Instant::now();
-        self.scratch = sc;
-        let cycles = self.order(mesh, camera, &mut order)?;
-        sc = std::mem::take(&mut self.scratch);
-        let sort_ms = ms_since(t1);
+        let ((sorted, sort_ms), ()) = rayon::join(
+            || {
+                let t = Instant::now();
+                let sorted = sorter.sort(mesh, camera, &mut order);
+                (sorted, ms_since(t))
+            },
+            || {
+                project::project_verts(st, camera, &mut sc.verts);
+                if fast.is_none() {
+                    project::project(st, mesh, camera, None, &mut sc);
+                }
+            },
+        );
+        let mut project_ms = (ms_since(t1) - sort_ms).max(0.0);
+        self.sort_stats = match sorted {
+            Ok(stats) => stats,
+            Err(e) => {
+                sc.order = order;
+                self.scratch = sc;
+                return Err(e);
+            }
+        };
+        let cycles = self.sort_stats.cells_in_cycles;
         let st = self.state.as_ref().expect("prepared");
         let fast = st.shading.f32().filter(|_| !persp);
+        let mut drawn_records = None;
         if fast.is_some() {
             let t0 = Instant::now();
             drawn_records = project::project(st, mesh, camera, Some(&order), &mut sc);
-            project_ms = ms_since(t0);
+            project_ms += ms_since(t0);
         }
         sc.order = order;
 

@@ -40,21 +40,9 @@ pub(super) struct TetProj {
 pub(super) type TileRect = [u16; 4];
 pub(super) const NO_TILES: TileRect = [1, 1, 0, 0];
 
-/// Projects and classifies `mesh` for `camera` into `sc`: `verts`, and either (`order`: the
-/// fast path) a record and a tile range per place of the visibility order (`fast[i]` and
-/// `rects[i]` for tet `order[i]`), or every tet's classification and tile range in mesh order
-/// (`tets`, `rects`). On the fast path, returns how many of the records are of a drawn class
-/// (counted here, in parallel, rather than by a serial pass over the records afterwards: 1.4 ms
-/// of post's frame at 512²); the general path's drawn tets are counted over the order.
-pub(super) fn project(
-    st: &Prepared,
-    mesh: &Mesh,
-    camera: &Camera,
-    order: Option<&[u32]>,
-    sc: &mut Scratch,
-) -> Option<usize> {
-    let (w, h) = (camera.width, camera.height);
-    let persp = camera.projection == Projection::Persp;
+/// Every vertex of `st` to snapped pixel coordinates and depth for `camera`, into `verts` (the
+/// first part of the project stage; it needs no order, so it runs beside the sort).
+pub(super) fn project_verts(st: &Prepared, camera: &Camera, verts: &mut Vec<VertProj>) {
     st.pos
         .par_iter()
         .zip(st.s.par_iter())
@@ -67,7 +55,25 @@ pub(super) fn project(
                 s,
             }
         })
-        .collect_into_vec(&mut sc.verts);
+        .collect_into_vec(verts);
+}
+
+/// Classifies the tets of `mesh` for `camera` into `sc`: either (`order`: the
+/// fast path) a record and a tile range per place of the visibility order (`fast[i]` and
+/// `rects[i]` for tet `order[i]`), or every tet's classification and tile range in mesh order
+/// (`tets`, `rects`). On the fast path, returns how many of the records are of a drawn class
+/// (counted here, in parallel, rather than by a serial pass over the records afterwards: 1.4 ms
+/// of post's frame at 512²); the general path's drawn tets are counted over the order.
+/// (`sc.verts` must hold [`project_verts`]'s output for this camera.)
+pub(super) fn project(
+    st: &Prepared,
+    mesh: &Mesh,
+    camera: &Camera,
+    order: Option<&[u32]>,
+    sc: &mut Scratch,
+) -> Option<usize> {
+    let (w, h) = (camera.width, camera.height);
+    let persp = camera.projection == Projection::Persp;
     let verts = &sc.verts;
     // The tile range of a drawn tet's pixel box (empty when no centre is inside the image).
     let tiles_of = |b: [i64; 4]| {

@@ -14,6 +14,8 @@ use crate::mesh::Mesh;
 const BITS: u32 = 11;
 const BUCKETS: usize = 1 << BITS;
 const PASSES: usize = 3;
+/// Sets of digit counts the counting pass keeps (see `radix_sort_into`).
+const COPIES: usize = 4;
 
 #[derive(Debug, Default)]
 pub struct RadixSort {
@@ -70,11 +72,32 @@ pub(crate) fn radix_sort_hi32(v: &mut Vec<u64>, tmp: &mut Vec<u64>) {
 /// that pass found it).
 pub(super) fn radix_sort_into(v: &mut Vec<u64>, tmp: &mut Vec<u64>, mut order: Option<&mut Vec<u32>>) {
     let n = v.len();
-    let mut hist = [[0usize; BUCKETS]; PASSES];
-    for &x in v.iter() {
+    // The digit counts, in `COPIES` sets taken by consecutive keys in turn and summed after:
+    // neighbouring tets have nearly the same depth, so their high digits mostly repeat, and a
+    // single set made each count wait on the one before (the counting pass was 0.7 ms of
+    // post's 3.9 ms sort).
+    let mut sets = vec![[[0u32; BUCKETS]; PASSES]; COPIES];
+    let mut keys = v.chunks_exact(COPIES);
+    for xs in &mut keys {
+        for (set, &x) in sets.iter_mut().zip(xs) {
+            let k = (x >> 32) as u32;
+            for (p, h) in set.iter_mut().enumerate() {
+                h[((k >> (BITS * p as u32)) as usize) & (BUCKETS - 1)] += 1;
+            }
+        }
+    }
+    for &x in keys.remainder() {
         let k = (x >> 32) as u32;
-        for (p, h) in hist.iter_mut().enumerate() {
+        for (p, h) in sets[0].iter_mut().enumerate() {
             h[((k >> (BITS * p as u32)) as usize) & (BUCKETS - 1)] += 1;
+        }
+    }
+    let mut hist = [[0usize; BUCKETS]; PASSES];
+    for set in &sets {
+        for (h, c) in hist.iter_mut().zip(set) {
+            for (a, &b) in h.iter_mut().zip(c) {
+                *a += b as usize;
+            }
         }
     }
     // A pass whose digit is the same for every key would not move anything.

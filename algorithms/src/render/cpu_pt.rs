@@ -17,6 +17,11 @@
 //! records in increasing addresses instead of at random (and tets a skipping sort leaves out
 //! are not projected).
 //!
+//! The sort runs on one thread while the rest of the pool projects the vertices (and, on the
+//! general path, classifies the tets), which need no order. So `sort_ms` is the sort's own time
+//! and `project_ms` the project stage's wall time beyond it: the three stages still add up to
+//! the frame.
+//!
 //! **Interpolation.** In ortho, the ray through a fan triangle enters and leaves the tet through
 //! the same two faces everywhere in it, so for a field linear in the tet `s_f`, `s_b` and `l` are
 //! linear in screen space: barycentric interpolation is exact. In perspective the projected edges

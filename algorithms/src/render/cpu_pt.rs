@@ -285,8 +285,6 @@ impl Renderer for CpuPt {
             }
         };
         let cycles = self.sort_stats.cells_in_cycles;
-        let st = self.state.as_ref().expect("prepared");
-        let fast = st.shading.f32().filter(|_| !persp);
         let mut drawn_records = None;
         if fast.is_some() {
             let t0 = Instant::now();

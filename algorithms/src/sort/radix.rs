@@ -76,21 +76,23 @@ pub(super) fn radix_sort_into(v: &mut Vec<u64>, tmp: &mut Vec<u64>, mut order: O
     // neighbouring tets have nearly the same depth, so their high digits mostly repeat, and a
     // single set made each count wait on the one before (the counting pass was 0.7 ms of
     // post's 3.9 ms sort).
+    // (Taken whole sets of `COPIES` keys at a time: `sets[i % COPIES]` cost ~9 % more of the
+    // sort's instructions.)
+    let count = |set: &mut [[u32; BUCKETS]; PASSES], x: u64| {
+        let k = (x >> 32) as u32;
+        for (p, h) in set.iter_mut().enumerate() {
+            h[((k >> (BITS * p as u32)) as usize) & (BUCKETS - 1)] += 1;
+        }
+    };
     let mut sets = vec![[[0u32; BUCKETS]; PASSES]; COPIES];
     let mut keys = v.chunks_exact(COPIES);
     for xs in &mut keys {
         for (set, &x) in sets.iter_mut().zip(xs) {
-            let k = (x >> 32) as u32;
-            for (p, h) in set.iter_mut().enumerate() {
-                h[((k >> (BITS * p as u32)) as usize) & (BUCKETS - 1)] += 1;
-            }
+            count(set, x);
         }
     }
     for &x in keys.remainder() {
-        let k = (x >> 32) as u32;
-        for (p, h) in sets[0].iter_mut().enumerate() {
-            h[((k >> (BITS * p as u32)) as usize) & (BUCKETS - 1)] += 1;
-        }
+        count(&mut sets[0], x);
     }
     let mut hist = [[0usize; BUCKETS]; PASSES];
     for set in &sets {

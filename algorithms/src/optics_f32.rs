@@ -6,7 +6,9 @@
 //!   `[min(0, first point s), max(1, last point s)]`, linearly interpolated (constant beyond the
 //!   range, like the TF itself). The TF is piecewise linear, so this is exact but in the one
 //!   sample interval around each control point, where the error is at most
-//!   `slope·Δs/4` with `Δs = (s_hi − s_lo)/4095`;
+//!   `|Δslope|·Δs/4` with `Δs = (s_hi − s_lo)/4095` (`cpu-pt`'s `partial` takes a tet whose
+//!   scalars lie on one piece, or on two across one point, from the pieces' lines instead
+//!   ([`TfTable::span_over`]), which are the TF there also around the point);
 //! - `partial`'s Ψ table ([`PsiTable`], already f32) and `preint`'s [`PreintTable`] (f32);
 //! - exp by [`exp_neg`] (2^y by a polynomial; relative error ≤ 2e-6 for x ≤ 20, from rounding
 //!   x·log2 e in f32; absolute error ≤ 2e-7).
@@ -26,7 +28,7 @@ mod tf_lines;
 pub(crate) use colour::colour_lanes_n;
 pub use colour::{segment_from_colours, shade_colours, ColourBatch};
 use tf_lines::pieces;
-pub use tf_lines::TfLine;
+pub use tf_lines::{TfHinge, TfLine, TfSpan};
 
 /// Samples of the transfer-function table.
 pub const TF_SAMPLES: usize = 4096;
@@ -43,6 +45,8 @@ pub struct TfTable {
     /// strictly inside, where the table bends, or with τ capped, is on none).
     lines: Vec<TfLine>,
     runs: Vec<[u32; 2]>,
+    /// Entry k: where runs k and k + 1 meet at one control point, the two lines as a hinge.
+    hinges: Vec<Option<TfHinge>>,
 }
 
 impl TfTable {
@@ -71,7 +75,7 @@ impl TfTable {
                 ]
             })
             .collect();
-        let (lines, runs) = pieces(tf, n, at);
+        let (lines, runs, hinges) = pieces(tf, n, at);
         TfTable {
             lo: lo as f32,
             scale: ((n - 1) as f64 / (hi - lo)) as f32,
@@ -79,6 +83,7 @@ impl TfTable {
             data,
             lines,
             runs,
+            hinges,
         }
     }
 

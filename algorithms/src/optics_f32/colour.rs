@@ -1,8 +1,9 @@
 //! `partial` from colours: the batch kernel for fragments whose transfer function was already
 //! evaluated at both ends.
 //!
-//! `cpu-pt` takes each tet's piece of the TF as a line ([`TfTable::line_over`]) when the tet's
-//! scalars lie on one piece, and then gives each fragment its colours `c0 + c1·s` at both ends
+//! `cpu-pt` takes each tet's piece of the TF as a line ([`TfTable::span_over`]) when the tet's
+//! scalars lie on one piece (or two lines, where they cross one control point), and then gives
+//! each fragment its colours `c0 + c1·s` at both ends
 //! instead of its scalars: the two table look-ups per fragment (eight scattered loads, half
 //! the time of the lane-wise `partial` kernel) become eight multiply-adds in the rasteriser.
 //! [`segment_from_colours`] is `partial`'s [`FastIntegrator::segment`] from that point on, and
@@ -145,7 +146,7 @@ pub(crate) fn colour_lanes_n<const N: usize>(
 
 #[cfg(test)]
 mod tests {
-    use super::super::{FastIntegrator, TfTable, TF_SAMPLES};
+    use super::super::{FastIntegrator, TfSpan, TfTable, TF_SAMPLES};
     use super::*;
     use crate::tf::TransferFunction;
 
@@ -204,10 +205,12 @@ mod tests {
     }
 
     /// Where the table says a range lies on one line, the line is the table to f32 rounding,
-    /// on every preset and a TF with a step and points off the samples; ranges across a
-    /// control point have no line.
+    /// on every preset and a TF with a step and points off the samples; where it says the range
+    /// crosses one control point, the hinge is the TF itself (in f64) to f32 rounding, also
+    /// inside the sample interval around the point, and the table away from it; ranges across
+    /// two control points or the step have neither.
     #[test]
-    fn tf_lines_are_the_table() {
+    fn tf_spans_are_the_table() {
         let mut tfs: Vec<TransferFunction> = crate::tf::PRESETS
             .iter()
             .map(|p| TransferFunction::preset(p).unwrap())
@@ -218,31 +221,75 @@ mod tests {
         tfs.push(step);
         for tf in &tfs {
             let t = TfTable::new(tf, TF_SAMPLES);
-            let (mut lined, mut worst) = (0, 0.0f32);
-            for k in 0..4000 {
-                let s0 = k as f32 / 4000.0 * 1.1 - 0.05;
-                let s1 = s0 + 0.002 * (k % 7) as f32;
-                let Some(line) = t.line_over(s0, s1) else {
+            let (lo, scale) = t.domain();
+            let (mut lined, mut hinged, mut worst) = (0, 0, 0.0f32);
+            let rel = |got: f32, want: f32| (got - want).abs() / want.abs().max(1.0);
+            for k in 0..8000 {
+                let s0 = (k % 4000) as f32 / 4000.0 * 1.1 - 0.05;
+                // Short ranges, and (the second half) ranges long enough to cross a point.
+                let s1 = s0
+                    + if k < 4000 {
+                        0.002 * (k % 7) as f32
+                    } else {
+                        0.03
+                    };
+                let Some(span) = t.span_over(s0, s1) else {
                     continue;
                 };
-                lined += 1;
-                assert!(
-                    tf.points_between(s0 as f64, s1 as f64).is_empty(),
-                    "{s0} {s1}"
-                );
-                for j in 0..=8 {
-                    let s = s0 + (s1 - s0) * j as f32 / 8.0;
-                    let v = t.eval(s);
-                    for (c, &vc) in v.iter().enumerate() {
-                        let e = (line.c0[c] + line.c1[c] * s - vc).abs();
-                        worst = worst.max(e / vc.abs().max(1.0));
+                let crossed = tf.points_between(s0 as f64, s1 as f64);
+                let mut at: Vec<f32> = (0..=8).map(|j| s0 + (s1 - s0) * j as f32 / 8.0).collect();
+                match span {
+                    TfSpan::Line(_) => {
+                        lined += 1;
+                        assert!(crossed.is_empty(), "{s0} {s1}");
+                    }
+                    TfSpan::Hinge(h) => {
+                        hinged += 1;
+                        assert!(crossed.len() <= 1, "{s0} {s1}");
+                        assert!(tf.points.iter().any(|p| p.s as f32 == h.at));
+                        at.extend([h.at, h.at.next_down(), h.at.next_up()]);
+                    }
+                }
+                for s in at {
+                    let v = span.eval(s);
+                    let (c, tau) = tf.eval(s as f64);
+                    let exact = [c[0], c[1], c[2], tau];
+                    // The table interpolates the TF except in a sample interval around a
+                    // control point, where it holds the chord.
+                    let x = (s - lo) * scale;
+                    let (s_a, s_b) = (x.floor() / scale + lo, (x.floor() + 1.0) / scale + lo);
+                    let bent = !tf
+                        .points_between(s_a as f64 - 1e-6, s_b as f64 + 1e-6)
+                        .is_empty();
+                    for (ch, &vc) in v.iter().enumerate() {
+                        worst = worst.max(rel(vc, exact[ch] as f32));
+                        if !bent {
+                            worst = worst.max(rel(vc, t.eval(s)[ch]));
+                        }
                     }
                 }
             }
             assert!(lined > 3000, "{}: {lined}", tf.name);
+            // Every TF here but `xray` (one piece over the range) has points to cross.
+            if tf.name != "xray" {
+                assert!(hinged > 100, "{}: {hinged}", tf.name);
+            }
             assert!(worst < 4e-6, "{}: {worst}", tf.name);
-            assert!(t.line_over(f32::NAN, 0.5).is_none());
-            assert!(t.line_over(0.5, 0.4).is_none());
+            assert!(t.span_over(f32::NAN, 0.5).is_none());
+            assert!(t.span_over(0.5, 0.4).is_none());
         }
+        // Across two control points, and across the step (two points at one scalar): the table.
+        let default = TfTable::new(&tfs[0], TF_SAMPLES);
+        assert!(default.span_over(0.2, 0.55).is_none());
+        assert!(matches!(
+            default.span_over(0.2, 0.3),
+            Some(TfSpan::Hinge(_))
+        ));
+        let stepped = TfTable::new(&tfs[3], TF_SAMPLES);
+        assert!(stepped.span_over(0.24, 0.26).is_none());
+        assert!(matches!(
+            stepped.span_over(0.6, 0.63),
+            Some(TfSpan::Hinge(_))
+        ));
     }
 }

@@ -1,6 +1,7 @@
-//! The transfer function's pieces as lines, for [`TfTable::line_over`]: where a tet's scalars
-//! lie on one piece of the TF, `cpu-pt` evaluates the TF there as `c0 + c1·s` instead of
-//! looking the table up per fragment (see `render/cpu_pt/queue.rs`).
+//! The transfer function's pieces as lines, for [`TfTable::span_over`]: where a tet's scalars
+//! lie on one piece of the TF, or on two pieces meeting at one control point, `cpu-pt`
+//! evaluates the TF there as `c0 + c1·s` (the hinge's line chosen by the side of the point)
+//! instead of looking the table up per fragment (see `render/cpu_pt/queue.rs`).
 
 use super::{TfTable, TAU_MAX};
 use crate::tf::TransferFunction;
@@ -12,13 +13,48 @@ pub struct TfLine {
     pub c1: [f32; 4],
 }
 
+/// Two pieces of the transfer function meeting at one control point `at`: `below` for
+/// `s < at`, `above` from `at` on. Across the point this is the TF itself (to f32 rounding),
+/// where the table holds, in the one sample interval around `at`, the chord between its two
+/// samples (off the TF by up to `|Δslope|·Δs/4`, [`super`]'s module docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TfHinge {
+    pub at: f32,
+    pub below: TfLine,
+    pub above: TfLine,
+}
+
+/// The transfer function over a tet's scalar range, as `cpu-pt` evaluates it per fragment.
+#[derive(Clone, Copy, Debug)]
+pub enum TfSpan<'a> {
+    /// The range lies on one piece.
+    Line(&'a TfLine),
+    /// The range crosses one control point, and the pieces on either side are lines.
+    Hinge(&'a TfHinge),
+}
+
+impl TfSpan<'_> {
+    /// `[r, g, b, τ]` at `s`: `c0 + c1·s` of the line `s` lies on (a product, then a sum).
+    #[inline(always)]
+    pub fn eval(&self, s: f32) -> [f32; 4] {
+        let t = match self {
+            TfSpan::Line(t) => t,
+            TfSpan::Hinge(h) if s < h.at => &h.below,
+            TfSpan::Hinge(h) => &h.above,
+        };
+        std::array::from_fn(|c| t.c0[c] + t.c1[c] * s)
+    }
+}
+
 impl TfTable {
-    /// The line the table follows over `[s0, s1]`, where the whole range lies on one piece of
-    /// the TF inside the table's domain (else `None`): there [`TfTable::eval`] interpolates
-    /// between samples of that line, so `c0 + c1·s` is its value up to f32 rounding (each
-    /// sample is the TF rounded to f32; the line is the TF's piece computed in f64).
+    /// The TF over `[s0, s1]` as lines, where the whole range lies inside the table's domain
+    /// and on one piece of the TF ([`TfSpan::Line`]: there [`TfTable::eval`] interpolates
+    /// between samples of that line, so `c0 + c1·s` is its value up to f32 rounding; each
+    /// sample is the TF rounded to f32, the line is the TF's piece computed in f64), or on two
+    /// pieces with one control point between them ([`TfSpan::Hinge`]); else `None` (the
+    /// table is looked up).
     #[inline]
-    pub fn line_over(&self, s0: f32, s1: f32) -> Option<&TfLine> {
+    pub fn span_over(&self, s0: f32, s1: f32) -> Option<TfSpan<'_>> {
         let (x0, x1) = ((s0 - self.lo) * self.scale, (s1 - self.lo) * self.scale);
         // Also false for NaN.
         if !(x0 >= 0.0 && x1 <= self.max && x0 <= x1) {
@@ -29,18 +65,25 @@ impl TfTable {
         let (i0, i1) = ((x0 as u32).min(last), (x1 as u32).min(last));
         // The TF has a few pieces: the run starting last at or before `i0`, by search.
         let k = self.runs.partition_point(|r| r[0] <= i0).checked_sub(1)?;
-        (i1 < self.runs[k][1]).then(|| &self.lines[k])
+        if i1 < self.runs[k][1] {
+            return Some(TfSpan::Line(&self.lines[k]));
+        }
+        // Past run k: the hinge to run k + 1, if there is one (then `i0` is in run k or in
+        // the one bent interval between them) and the range ends in run k + 1.
+        let h = self.hinges.get(k)?.as_ref()?;
+        (i1 < self.runs[k + 1][1]).then_some(TfSpan::Hinge(h))
     }
 }
 
 /// The lines of [`TfTable`] and the sample intervals each covers (see `TfTable::runs`): each
 /// piece of `tf` over the intervals `at(i)..at(i + 1)` it holds unbent, its line in f64
-/// rounded to f32.
+/// rounded to f32; and between each two consecutive runs their hinge, where one control point
+/// (with τ not capped) joins them across at most one interval (see [`hinges`]).
 pub(super) fn pieces(
     tf: &TransferFunction,
     n: usize,
     at: impl Fn(usize) -> f64,
-) -> (Vec<TfLine>, Vec<[u32; 2]>) {
+) -> (Vec<TfLine>, Vec<[u32; 2]>, Vec<Option<TfHinge>>) {
     let mut lines: Vec<TfLine> = Vec::new();
     let mut runs: Vec<[u32; 2]> = Vec::new();
     // Whether the last interval was on the last line.
@@ -72,5 +115,41 @@ pub(super) fn pieces(
             r[1] = i as u32 + 1;
         }
     }
-    (lines, runs)
+    let hinges = hinges(tf, &lines, &runs, at);
+    (lines, runs, hinges)
+}
+
+/// The hinge between runs k and k + 1 of [`pieces`], entry k: where the second starts at the
+/// sample the first ends at (a control point on that sample began a new piece) or one
+/// interval later (a control point strictly inside that interval bent it), and exactly one
+/// control point lies between (closed), with τ not capped at either sample. Otherwise
+/// (two points in one interval, a step, a gap of τ beyond [`TAU_MAX`]) `None`.
+fn hinges(
+    tf: &TransferFunction,
+    lines: &[TfLine],
+    runs: &[[u32; 2]],
+    at: impl Fn(usize) -> f64,
+) -> Vec<Option<TfHinge>> {
+    (1..runs.len())
+        .map(|k| {
+            let (end, start) = (runs[k - 1][1] as usize, runs[k][0] as usize);
+            if start > end + 1 {
+                return None;
+            }
+            let (a, b) = (at(end), at(start));
+            let mut inside = tf.points.iter().filter(|p| a <= p.s && p.s <= b);
+            let (Some(p), None) = (inside.next(), inside.next()) else {
+                return None;
+            };
+            let capped = |s: f64| tf.eval(s).1 > TAU_MAX;
+            if capped(a) || capped(b) {
+                return None;
+            }
+            Some(TfHinge {
+                at: p.s as f32,
+                below: lines[k - 1],
+                above: lines[k],
+            })
+        })
+        .collect()
 }

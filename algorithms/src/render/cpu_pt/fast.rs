@@ -23,7 +23,8 @@
 //! - **batched shading** ([`Queue`]): fragments are queued, a batch is shaded at once and then
 //!   composited in queue order, which is the order a per-fragment loop would composite in, so
 //!   the image is the same; `partial` queues colours, taken from the tet's line of the transfer
-//!   function where its scalars lie on one piece, so that its batch kernel has no table look-up.
+//!   function where its scalars lie on one piece (or its two lines where they cross one control
+//!   point: [`TfSpan`]), so that its batch kernel has no table look-up.
 //!
 //! The draw of a tile is compiled for the best instruction set of the CPU (`pulp`'s run-time
 //! dispatch; x86-64-v3 where present), with a scalar fallback.
@@ -31,7 +32,7 @@
 use super::queue::{Lanes, Queue};
 use super::TILE;
 use crate::render::prefetch;
-use crate::optics_f32::{FastIntegrator, TfLine};
+use crate::optics_f32::{FastIntegrator, TfSpan};
 use crate::pt::{fan_bits, wedge, Case, Fit, SmallTet, TetRaster, MAX_FAN, TABLE};
 
 /// What drawing one tet needs, in one 64-byte line.
@@ -125,8 +126,8 @@ impl DrawTile<'_> {
                 match sm.set_up(case, &q, clip, SMALL_CENTRES) {
                     Fit::Empty => continue,
                     Fit::Small => {
-                        let line = qu.line(&r.s);
-                        small(&sm, r, case, (x0, y0), line, &mut qu, &mut buf);
+                        let span = qu.span(&r.s);
+                        small(&sm, r, case, (x0, y0), span, &mut qu, &mut buf);
                         continue;
                     }
                     Fit::Large => {}
@@ -135,12 +136,12 @@ impl DrawTile<'_> {
             let Some(mut tr) = TetRaster::new(case, &q, clip) else {
                 continue;
             };
-            let line = qu.line(&r.s);
+            let span = qu.span(&r.s);
             if self.kernel == Kernel::Spans && tr.valid == (1 << tr.ntri) - 1 {
-                spans(simd, &mut tr, r, case, (x0, y0), line, &mut qu, &mut buf);
+                spans(simd, &mut tr, r, case, (x0, y0), span, &mut qu, &mut buf);
             } else {
                 let planes = Planes::new(&tr, r, case);
-                per_pixel(&mut tr, &planes, (x0, y0), line, &mut qu, &mut buf);
+                per_pixel(&mut tr, &planes, (x0, y0), span, &mut qu, &mut buf);
             }
         }
         qu.flush(&mut buf);
@@ -214,7 +215,7 @@ fn spans<S: pulp::Simd>(
     r: &FastRec,
     case: &Case,
     tile: (i64, i64),
-    line: Option<&TfLine>,
+    span: Option<TfSpan>,
     qu: &mut Queue,
     buf: &mut [[f32; 4]],
 ) {
@@ -223,10 +224,10 @@ fn spans<S: pulp::Simd>(
     // evaluates 9 planes a vector, not 12 (until 27efeca the missing triangles repeated
     // triangle 0, which changed no min or max: the same bits).
     match tr.ntri {
-        1 => span_rows::<S, 1>(simd, tr, &set, line, qu, buf),
-        2 => span_rows::<S, 2>(simd, tr, &set, line, qu, buf),
-        3 => span_rows::<S, 3>(simd, tr, &set, line, qu, buf),
-        _ => span_rows::<S, 4>(simd, tr, &set, line, qu, buf),
+        1 => span_rows::<S, 1>(simd, tr, &set, span, qu, buf),
+        2 => span_rows::<S, 2>(simd, tr, &set, span, qu, buf),
+        3 => span_rows::<S, 3>(simd, tr, &set, span, qu, buf),
+        _ => span_rows::<S, 4>(simd, tr, &set, span, qu, buf),
     }
 }
 
@@ -332,7 +333,7 @@ fn span_rows<S: pulp::Simd, const NT: usize>(
     simd: S,
     tr: &mut TetRaster,
     set: &SpanSet<S::f32s>,
-    line: Option<&TfLine>,
+    span: Option<TfSpan>,
     qu: &mut Queue,
     buf: &mut [[f32; 4]],
 ) {
@@ -397,7 +398,7 @@ fn span_rows<S: pulp::Simd, const NT: usize>(
                 l: vl,
                 count: (n - c * lanes).min(lanes),
             };
-            qu.push_lanes(simd, line, v, p0.wrapping_add((c * lanes) as u16));
+            qu.push_lanes(simd, span, v, p0.wrapping_add((c * lanes) as u16));
         }
     }
 }
@@ -414,7 +415,7 @@ fn per_pixel(
     tr: &mut TetRaster,
     pl: &Planes,
     (x0, y0): (i64, i64),
-    line: Option<&TfLine>,
+    span: Option<TfSpan>,
     qu: &mut Queue,
     buf: &mut [[f32; 4]],
 ) {
@@ -441,7 +442,7 @@ fn per_pixel(
             let (b, d) = (&base[tri], &pl.da[tri]);
             qu.reserve(1, buf);
             qu.push(
-                line,
+                span,
                 (b[0] + kf * d[0]) as f32,
                 (b[1] + kf * d[1]) as f32,
                 (b[2] + kf * d[2]) as f32,
@@ -464,7 +465,7 @@ fn small(
     r: &FastRec,
     case: &Case,
     (x0, y0): (i64, i64),
-    line: Option<&TfLine>,
+    span: Option<TfSpan>,
     qu: &mut Queue,
     buf: &mut [[f32; 4]],
 ) {
@@ -487,7 +488,7 @@ fn small(
             let l = at(2, -thick[2], -thick[2]);
             qu.reserve(1, buf);
             let p = (row + (sm.ia + di - x0) as usize) as u16;
-            qu.push(line, sf as f32, sb as f32, l as f32, p);
+            qu.push(span, sf as f32, sb as f32, l as f32, p);
             qu.advance((hit != 0) as usize);
         }
     }

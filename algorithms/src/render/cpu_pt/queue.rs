@@ -4,15 +4,16 @@
 //!
 //! Two kinds of batch:
 //! - `partial` queues each fragment's **colours** at both ends ([`ColourBatch`]): for a tet
-//!   whose scalars lie on one piece of the transfer function ([`TfTable::line_over`]) they are
-//!   `c0 + c1·s`, a multiply-add per channel and lane; for the others the table is looked up
-//!   per fragment, as before;
+//!   whose scalars lie on one piece of the transfer function, or on two pieces meeting at one
+//!   control point ([`TfTable::span_over`]), they are `c0 + c1·s`, a multiply-add per channel
+//!   and lane (at a hinge, `c0` and `c1` chosen per lane by the side of the point); for the
+//!   others the table is looked up per fragment;
 //! - `average` and `preint` queue the scalars and the length ([`ShadeBatch`]).
 
 use super::TILE;
 use crate::optics::PsiTable;
 use crate::optics_f32::{
-    shade_colours, ColourBatch, FastIntegrator, ShadeBatch, TfLine, TfTable, BATCH,
+    shade_colours, ColourBatch, FastIntegrator, ShadeBatch, TfSpan, TfTable, BATCH,
 };
 
 /// See the module documentation.
@@ -55,14 +56,15 @@ impl<'a> Queue<'a> {
         }
     }
 
-    /// The line of `tf` over a tet's scalars `s`, when the queue holds colours and they lie on
-    /// one piece (`None` otherwise: the table is looked up per fragment).
+    /// The lines of `tf` over a tet's scalars `s`, when the queue holds colours and they lie on
+    /// one piece or two ([`TfTable::span_over`]; `None` otherwise: the table is looked up per
+    /// fragment).
     #[inline(always)]
-    pub(super) fn line(&self, s: &[f32; 4]) -> Option<&'a TfLine> {
+    pub(super) fn span(&self, s: &[f32; 4]) -> Option<TfSpan<'a>> {
         let (tf, _) = self.colours?;
         let lo = s[0].min(s[1]).min(s[2].min(s[3]));
         let hi = s[0].max(s[1]).max(s[2].max(s[3]));
-        tf.line_over(lo, hi)
+        tf.span_over(lo, hi)
     }
 
     /// Makes room for `n` more slots (flushing when they do not fit).
@@ -75,10 +77,10 @@ impl<'a> Queue<'a> {
 
     /// Queues one fragment at pixel `p` (room for one must have been made).
     #[inline(always)]
-    pub(super) fn push(&mut self, line: Option<&TfLine>, sf: f32, sb: f32, l: f32, p: u16) {
+    pub(super) fn push(&mut self, span: Option<TfSpan>, sf: f32, sb: f32, l: f32, p: u16) {
         let k = self.len;
         if let Some((tf, _)) = self.colours {
-            let (cf, cb, l) = colours(tf, line, sf, sb, l);
+            let (cf, cb, l) = colours(tf, span, sf, sb, l);
             for c in 0..4 {
                 self.col.cf[c][k] = cf[c];
                 self.col.cb[c][k] = cb[c];
@@ -105,7 +107,7 @@ impl<'a> Queue<'a> {
     pub(super) fn push_lanes<S: pulp::Simd>(
         &mut self,
         simd: S,
-        line: Option<&TfLine>,
+        span: Option<TfSpan>,
         v: Lanes<S::f32s>,
         p0: u16,
     ) {
@@ -116,17 +118,34 @@ impl<'a> Queue<'a> {
         let put = |dst: &mut [f32; BATCH], x: S::f32s| {
             S::as_mut_simd_f32s(&mut dst[at..at + lanes]).0[0] = x;
         };
-        match (self.colours, line) {
+        match (self.colours, span) {
             (None, _) => {
                 put(&mut self.scalars.sf, v.sf);
                 put(&mut self.scalars.sb, v.sb);
                 put(&mut self.scalars.l, v.l);
             }
-            (Some(_), Some(line)) => {
+            (Some(_), Some(TfSpan::Line(line))) => {
                 for c in 0..4 {
                     let (c0, c1) = (simd.splat_f32s(line.c0[c]), simd.splat_f32s(line.c1[c]));
                     put(&mut self.col.cf[c], simd.mul_add_f32s(c1, v.sf, c0));
                     put(&mut self.col.cb[c], simd.mul_add_f32s(c1, v.sb, c0));
+                }
+                put(&mut self.col.l, v.l);
+            }
+            (Some(_), Some(TfSpan::Hinge(h))) => {
+                // Each end's line by its side of the point (`TfSpan::eval`'s choice: below
+                // where s < at, so a NaN takes the line above and stays NaN).
+                let at = simd.splat_f32s(h.at);
+                let (bf, bb) = (simd.less_than_f32s(v.sf, at), simd.less_than_f32s(v.sb, at));
+                for c in 0..4 {
+                    let (d0, d1) = (simd.splat_f32s(h.below.c0[c]), simd.splat_f32s(h.below.c1[c]));
+                    let (u0, u1) = (simd.splat_f32s(h.above.c0[c]), simd.splat_f32s(h.above.c1[c]));
+                    let end = |below, s| {
+                        let (c0, c1) = (simd.select_f32s(below, d0, u0), simd.select_f32s(below, d1, u1));
+                        simd.mul_add_f32s(c1, s, c0)
+                    };
+                    put(&mut self.col.cf[c], end(bf, v.sf));
+                    put(&mut self.col.cb[c], end(bb, v.sb));
                 }
                 put(&mut self.col.l, v.l);
             }
@@ -237,16 +256,12 @@ fn composite(out: &[[f32; BATCH]; 4], pix: &[u16], buf: &mut [[f32; 4]]) {
     }
 }
 
-/// A fragment's colours at both ends and its length: from the tet's line when it has one, else
-/// from the table (a non-finite scalar gives length 0: no contribution, as `segment`).
+/// A fragment's colours at both ends and its length: from the tet's lines when it has them,
+/// else from the table (a non-finite scalar gives length 0: no contribution, as `segment`).
 #[inline(always)]
-fn colours(tf: &TfTable, line: Option<&TfLine>, sf: f32, sb: f32, l: f32) -> ([f32; 4], [f32; 4], f32) {
-    match line {
-        Some(t) => (
-            std::array::from_fn(|c| t.c0[c] + t.c1[c] * sf),
-            std::array::from_fn(|c| t.c0[c] + t.c1[c] * sb),
-            l,
-        ),
+fn colours(tf: &TfTable, span: Option<TfSpan>, sf: f32, sb: f32, l: f32) -> ([f32; 4], [f32; 4], f32) {
+    match span {
+        Some(t) => (t.eval(sf), t.eval(sb), l),
         None if sf.is_finite() && sb.is_finite() => (tf.eval(sf), tf.eval(sb), l),
         None => ([0.0; 4], [0.0; 4], 0.0),
     }

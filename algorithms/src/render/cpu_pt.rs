@@ -45,6 +45,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 mod bins;
+mod composite;
 mod fast;
 mod general;
 mod project;

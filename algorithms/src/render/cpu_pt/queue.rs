@@ -10,7 +10,7 @@
 //!   others the table is looked up per fragment;
 //! - `average` and `preint` queue the scalars and the length ([`ShadeBatch`]).
 
-use super::TILE;
+use super::composite::composite;
 use crate::optics::PsiTable;
 use crate::optics_f32::{
     shade_colours, ColourBatch, FastIntegrator, ShadeBatch, TfSpan, TfTable, BATCH,
@@ -219,43 +219,6 @@ impl<'a> Queue<'a> {
     }
 }
 
-/// Composites shaded fragments (`out[c][k]`: channel c of fragment k) into the tile buffer
-/// (`TILE`² pixels) at `pix[k]`, in order: back-to-front "over" (premultiplied),
-/// `I ← I_seg + (1 − α_seg)·I`, a product then a sum per channel.
-///
-/// Four fragments at a time are turned from the batch's planes into pixels by a 4×4 transpose
-/// in registers (`glam`'s `Mat4`: SSE2 or NEON), so that each fragment is one 16-byte load, a
-/// product, a sum and a store (the scalar loop took 23 instructions a fragment, this ~15; each
-/// operation rounds as the scalar one did, so the bits are the same).
-#[inline(always)]
-fn composite(out: &[[f32; BATCH]; 4], pix: &[u16], buf: &mut [[f32; 4]]) {
-    use glam::{Mat4, Vec4, Vec4Swizzles};
-    const PIXELS: usize = (TILE * TILE) as usize;
-    // The masks below keep every index in the tile (no bounds check a fragment); the pixel
-    // indices are below TILE² by construction, so a mask changes none of them.
-    const _: () = assert!(PIXELS.is_power_of_two());
-    let buf: &mut [[f32; 4]; PIXELS] = buf.try_into().expect("a tile's buffer");
-    let over = |buf: &mut [[f32; 4]; PIXELS], p: u16, frag: Vec4| {
-        let px = &mut buf[p as usize & (PIXELS - 1)];
-        let keep = Vec4::ONE - frag.wwww();
-        *px = (frag + keep * Vec4::from_array(*px)).to_array();
-    };
-    let [r, g, b, a] = out;
-    let whole = pix.len() / 4 * 4;
-    for (k, p4) in pix[..whole].chunks_exact(4).enumerate() {
-        let k = 4 * k;
-        let at = |c: &[f32; BATCH]| Vec4::from_slice(&c[k..k + 4]);
-        let m = Mat4::from_cols(at(r), at(g), at(b), at(a)).transpose();
-        over(buf, p4[0], m.x_axis);
-        over(buf, p4[1], m.y_axis);
-        over(buf, p4[2], m.z_axis);
-        over(buf, p4[3], m.w_axis);
-    }
-    for (k, &p) in pix.iter().enumerate().skip(whole) {
-        over(buf, p, Vec4::new(r[k], g[k], b[k], a[k]));
-    }
-}
-
 /// A fragment's colours at both ends and its length: from the tet's lines when it has them,
 /// else from the table (a non-finite scalar gives length 0: no contribution, as `segment`).
 #[inline(always)]
@@ -264,45 +227,5 @@ fn colours(tf: &TfTable, span: Option<TfSpan>, sf: f32, sb: f32, l: f32) -> ([f3
         Some(t) => (t.eval(sf), t.eval(sb), l),
         None if sf.is_finite() && sb.is_finite() => (tf.eval(sf), tf.eval(sb), l),
         None => ([0.0; 4], [0.0; 4], 0.0),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The transposed composite gives the scalar "over" loop's bits, on a batch whose length is
-    /// not a multiple of four and whose fragments hit the same pixels again and again (so that
-    /// the order counts).
-    #[test]
-    fn composite_is_the_scalar_over() {
-        let mut rng = crate::pt::tests::Rng::new(11);
-        let mut rnd = || rng.f() as f32;
-        let px = (TILE * TILE) as usize;
-        for n in [0, 1, 3, 4, 5, 23, BATCH] {
-            let mut out = [[0.0f32; BATCH]; 4];
-            let mut pix = [0u16; BATCH];
-            for k in 0..n {
-                let a = rnd();
-                out[3][k] = a;
-                for c in out.iter_mut().take(3) {
-                    c[k] = rnd() * a;
-                }
-                pix[k] = ((rnd() * 7.0) as usize * 1031 % px) as u16;
-            }
-            let start: Vec<[f32; 4]> = (0..px).map(|_| [rnd(), rnd(), rnd(), rnd()]).collect();
-            let mut want = start.clone();
-            for k in 0..n {
-                let p = &mut want[pix[k] as usize];
-                let keep = 1.0 - out[3][k];
-                for (c, v) in p.iter_mut().enumerate() {
-                    *v = out[c][k] + keep * *v;
-                }
-            }
-            let mut got = start;
-            composite(&out, &pix[..n], &mut got);
-            let bits = |v: &[[f32; 4]]| v.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();
-            assert!(bits(&got) == bits(&want), "n = {n}");
-        }
     }
 }

@@ -47,8 +47,6 @@ pub struct TfTable {
     runs: Vec<[u32; 2]>,
     /// Entry k: where runs k and k + 1 meet at one control point, the two lines as a hinge.
     hinges: Vec<Option<TfHinge>>,
-    /// Per sample interval, the run starting last at or before it (see `tf_lines::run_at`).
-    run_at: Vec<u32>,
 }
 
 impl TfTable {
@@ -84,7 +82,6 @@ impl TfTable {
             max: (n - 1) as f32,
             data,
             lines,
-            run_at: tf_lines::run_at(&runs, n),
             runs,
             hinges,
         }

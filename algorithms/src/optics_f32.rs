@@ -45,8 +45,9 @@ pub struct TfTable {
     /// strictly inside, where the table bends, or with τ capped, is on none).
     lines: Vec<TfLine>,
     runs: Vec<[u32; 2]>,
-    /// Entry k: where runs k and k + 1 meet at one control point, the two lines as a hinge.
-    hinges: Vec<Option<TfHinge>>,
+    /// Entry k: the control point where runs k and k + 1 meet as a hinge (NaN where they
+    /// do not).
+    joins: Vec<f32>,
 }
 
 impl TfTable {
@@ -75,7 +76,7 @@ impl TfTable {
                 ]
             })
             .collect();
-        let (lines, runs, hinges) = pieces(tf, n, at);
+        let (lines, runs, joins) = pieces(tf, n, at);
         TfTable {
             lo: lo as f32,
             scale: ((n - 1) as f64 / (hi - lo)) as f32,
@@ -83,7 +84,7 @@ impl TfTable {
             data,
             lines,
             runs,
-            hinges,
+            joins,
         }
     }
 

@@ -18,10 +18,10 @@ pub struct TfLine {
 /// where the table holds, in the one sample interval around `at`, the chord between its two
 /// samples (off the TF by up to `|Δslope|·Δs/4`, [`super`]'s module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TfHinge {
+pub struct TfHinge<'a> {
     pub at: f32,
-    pub below: TfLine,
-    pub above: TfLine,
+    pub below: &'a TfLine,
+    pub above: &'a TfLine,
 }
 
 /// The transfer function over a tet's scalar range, as `cpu-pt` evaluates it per fragment.
@@ -30,7 +30,7 @@ pub enum TfSpan<'a> {
     /// The range lies on one piece.
     Line(&'a TfLine),
     /// The range crosses one control point, and the pieces on either side are lines.
-    Hinge(&'a TfHinge),
+    Hinge(TfHinge<'a>),
 }
 
 impl TfSpan<'_> {
@@ -39,8 +39,8 @@ impl TfSpan<'_> {
     pub fn eval(&self, s: f32) -> [f32; 4] {
         let t = match self {
             TfSpan::Line(t) => t,
-            TfSpan::Hinge(h) if s < h.at => &h.below,
-            TfSpan::Hinge(h) => &h.above,
+            TfSpan::Hinge(h) if s < h.at => h.below,
+            TfSpan::Hinge(h) => h.above,
         };
         std::array::from_fn(|c| t.c0[c] + t.c1[c] * s)
     }
@@ -73,20 +73,26 @@ impl TfTable {
         }
         // Past run k: the hinge to run k + 1, if there is one (then `i0` is in run k or in
         // the one bent interval between them) and the range ends in run k + 1.
-        let h = self.hinges.get(k)?.as_ref()?;
-        (i1 < self.runs[k + 1][1]).then_some(TfSpan::Hinge(h))
+        let at = *self.joins.get(k)?;
+        (!at.is_nan() && i1 < self.runs[k + 1][1]).then(|| {
+            TfSpan::Hinge(TfHinge {
+                at,
+                below: &self.lines[k],
+                above: &self.lines[k + 1],
+            })
+        })
     }
 }
 
 /// The lines of [`TfTable`] and the sample intervals each covers (see `TfTable::runs`): each
 /// piece of `tf` over the intervals `at(i)..at(i + 1)` it holds unbent, its line in f64
-/// rounded to f32; and between each two consecutive runs their hinge, where one control point
-/// (with τ not capped) joins them across at most one interval (see [`hinges`]).
+/// rounded to f32; and between each two consecutive runs the control point that joins them
+/// (NaN where none does: see [`joins`]).
 pub(super) fn pieces(
     tf: &TransferFunction,
     n: usize,
     at: impl Fn(usize) -> f64,
-) -> (Vec<TfLine>, Vec<[u32; 2]>, Vec<Option<TfHinge>>) {
+) -> (Vec<TfLine>, Vec<[u32; 2]>, Vec<f32>) {
     let mut lines: Vec<TfLine> = Vec::new();
     let mut runs: Vec<[u32; 2]> = Vec::new();
     // Whether the last interval was on the last line.
@@ -118,21 +124,17 @@ pub(super) fn pieces(
             r[1] = i as u32 + 1;
         }
     }
-    let hinges = hinges(tf, &lines, &runs, at);
-    (lines, runs, hinges)
+    let joins = joins(tf, &runs, at);
+    (lines, runs, joins)
 }
 
-/// The hinge between runs k and k + 1 of [`pieces`], entry k: where the second starts at the
-/// sample the first ends at (a control point on that sample began a new piece) or one
-/// interval later (a control point strictly inside that interval bent it), and exactly one
-/// control point lies between (closed), with τ not capped at either sample. Otherwise
-/// (two points in one interval, a step, a gap of τ beyond [`TAU_MAX`]) `None`.
-fn hinges(
-    tf: &TransferFunction,
-    lines: &[TfLine],
-    runs: &[[u32; 2]],
-    at: impl Fn(usize) -> f64,
-) -> Vec<Option<TfHinge>> {
+/// The point joining runs k and k + 1 of [`pieces`] into a hinge, entry k: where the second
+/// starts at the sample the first ends at (a control point on that sample began a new piece)
+/// or one interval later (a control point strictly inside that interval bent it), and exactly
+/// one control point lies between (closed), with τ not capped at either sample; NaN otherwise
+/// (two points in one interval, a step, a gap of τ beyond [`TAU_MAX`]). (The point alone, not
+/// the hinge's two lines again: those were ~216 bytes more a renderer.)
+fn joins(tf: &TransferFunction, runs: &[[u32; 2]], at: impl Fn(usize) -> f64) -> Vec<f32> {
     (1..runs.len())
         .map(|k| {
             let (end, start) = (runs[k - 1][1] as usize, runs[k][0] as usize);
@@ -148,11 +150,8 @@ fn hinges(
             if capped(a) || capped(b) {
                 return None;
             }
-            Some(TfHinge {
-                at: p.s as f32,
-                below: lines[k - 1],
-                above: lines[k],
-            })
+            Some(p.s as f32)
         })
+        .map(|p| p.unwrap_or(f32::NAN))
         .collect()
 }

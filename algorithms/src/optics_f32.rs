@@ -369,13 +369,15 @@ fn psi_at(t: &PsiTable, ga: f32, gb: f32) -> f32 {
     // index as 64-bit integer products was a scalar multiply and add a lane (2.5 % of a post
     // draw's instructions).
     let r0 = float_index(y * n as f32 + x) as usize;
-    let r1 = r0 + n;
     let (ti, tj) = (ga - x, gb - y);
-    let d = t.data();
-    // SAFETY: x, y ≤ n − 2, so r1 + 1 ≤ n² − 1 < d.len() (asserted by the caller).
-    let g = |k: usize| unsafe { *d.get_unchecked(k) };
-    let v0 = g(r0) + (g(r0 + 1) - g(r0)) * ti;
-    let v1 = g(r1) + (g(r1 + 1) - g(r1)) * ti;
+    // The next row as a slice of its own, so that both rows are read at index r0 (as r0 + n,
+    // each lane's second row took an address addition of its own).
+    // SAFETY: x, y ≤ n − 2, so r0 + n + 1 ≤ n² − 1 < data.len() (asserted by the caller).
+    let (d0, d1) = (t.data(), unsafe { t.data().get_unchecked(n..) });
+    let g0 = |k: usize| unsafe { *d0.get_unchecked(k) };
+    let g1 = |k: usize| unsafe { *d1.get_unchecked(k) };
+    let v0 = g0(r0) + (g0(r0 + 1) - g0(r0)) * ti;
+    let v1 = g1(r0) + (g1(r0 + 1) - g1(r0)) * ti;
     v0 + (v1 - v0) * tj
 }
 

@@ -13,15 +13,15 @@ pub struct TfLine {
     pub c1: [f32; 4],
 }
 
-/// Two pieces of the transfer function meeting at one control point `at`: `below` for
-/// `s < at`, `above` from `at` on. Across the point this is the TF itself (to f32 rounding),
+/// Two pieces of the transfer function meeting at one control point `at`: `lines[0]` for
+/// `s < at`, `lines[1]` from `at` on. Across the point this is the TF itself (to f32 rounding),
 /// where the table holds, in the one sample interval around `at`, the chord between its two
 /// samples (off the TF by up to `|Δslope|·Δs/4`, [`super`]'s module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TfHinge<'a> {
     pub at: f32,
-    pub below: &'a TfLine,
-    pub above: &'a TfLine,
+    /// Consecutive lines of the table (one reference, so that a [`TfSpan`] is two words).
+    pub lines: &'a [TfLine; 2],
 }
 
 /// The transfer function over a tet's scalar range, as `cpu-pt` evaluates it per fragment.
@@ -39,8 +39,8 @@ impl TfSpan<'_> {
     pub fn eval(&self, s: f32) -> [f32; 4] {
         let t = match self {
             TfSpan::Line(t) => t,
-            TfSpan::Hinge(h) if s < h.at => h.below,
-            TfSpan::Hinge(h) => h.above,
+            TfSpan::Hinge(h) if s < h.at => &h.lines[0],
+            TfSpan::Hinge(h) => &h.lines[1],
         };
         std::array::from_fn(|c| t.c0[c] + t.c1[c] * s)
     }
@@ -53,7 +53,9 @@ impl TfTable {
     /// sample is the TF rounded to f32, the line is the TF's piece computed in f64), or on two
     /// pieces with one control point between them ([`TfSpan::Hinge`]); else `None` (the
     /// table is looked up).
-    #[inline]
+    // Always inlined: out of line (with a hinge, `Option<TfSpan>` is returned through memory)
+    // it was compiled for the SSE2 baseline, outside the draw's dispatch.
+    #[inline(always)]
     pub fn span_over(&self, s0: f32, s1: f32) -> Option<TfSpan<'_>> {
         let (x0, x1) = ((s0 - self.lo) * self.scale, (s1 - self.lo) * self.scale);
         // Also false for NaN.
@@ -77,8 +79,7 @@ impl TfTable {
         (!at.is_nan() && i1 < self.runs[k + 1][1]).then(|| {
             TfSpan::Hinge(TfHinge {
                 at,
-                below: &self.lines[k],
-                above: &self.lines[k + 1],
+                lines: self.lines[k..k + 2].try_into().expect("a run after run k"),
             })
         })
     }

@@ -135,13 +135,13 @@ impl<'a> Queue<'a> {
             (Some(_), Some(TfSpan::Hinge(h))) => {
                 // Each end's line by its side of the point (`TfSpan::eval`'s choice: below
                 // where s < at, so a NaN takes the line above and stays NaN).
-                let at = simd.splat_f32s(h.at);
+                let (at, [below, above]) = (simd.splat_f32s(h.at), h.lines);
                 let (bf, bb) = (simd.less_than_f32s(v.sf, at), simd.less_than_f32s(v.sb, at));
                 for c in 0..4 {
-                    let (d0, d1) = (simd.splat_f32s(h.below.c0[c]), simd.splat_f32s(h.below.c1[c]));
-                    let (u0, u1) = (simd.splat_f32s(h.above.c0[c]), simd.splat_f32s(h.above.c1[c]));
-                    let end = |below, s| {
-                        let (c0, c1) = (simd.select_f32s(below, d0, u0), simd.select_f32s(below, d1, u1));
+                    let (d0, d1) = (simd.splat_f32s(below.c0[c]), simd.splat_f32s(below.c1[c]));
+                    let (u0, u1) = (simd.splat_f32s(above.c0[c]), simd.splat_f32s(above.c1[c]));
+                    let end = |lower, s| {
+                        let (c0, c1) = (simd.select_f32s(lower, d0, u0), simd.select_f32s(lower, d1, u1));
                         simd.mul_add_f32s(c1, s, c0)
                     };
                     put(&mut self.col.cf[c], end(bf, v.sf));

@@ -11,7 +11,8 @@ use crate::render::prefetch;
 use crate::camera::{Camera, Projection};
 use crate::mesh::Mesh;
 use crate::pt::{
-    classify, classify_ortho, pixel_box, snap, FanGeometry, ProjVertex, Thick, TABLE,
+    classify, classify_ortho, pixel_box, snap, table_index, tests, FanGeometry, ProjVertex,
+    Thick, TABLE,
 };
 
 /// Tets a task of the fast path's project stage takes.
@@ -186,13 +187,22 @@ impl<F: Fn([i64; 4]) -> TileRect> pulp::WithSimd for FastChunk<'_, F> {
             // instructions a tet.)
             let vp = t.map(|v| &verts[v as usize]);
             let q = vp.map(|v| [v.q[0] as i64, v.q[1] as i64]);
+            let rect = tiles_of(pixel_box(&q));
+            if rect == NO_TILES {
+                // No pixel centre of the image in its box: the tet is in no tile, so its record
+                // is never read. Only its class is counted (`tets_drawn`); its hull points, ~120
+                // instructions, and its record's write are skipped.
+                drawn += TABLE[table_index(&tests(&q))].drawn() as usize;
+                *r = NO_TILES;
+                continue;
+            }
             let p = vp.map(|v| DVec3::new(v.p[0] as f64, v.p[1] as f64, v.p[2] as f64));
             let s = vp.map(|v| v.s);
             let (case, [sf, sb, l]) =
                 classify_ortho(&q, &vp.map(|v| v.z), &p, &s.map(f64::from), inv_l);
             let is_drawn = TABLE[case as usize].drawn();
             drawn += is_drawn as usize;
-            *r = if is_drawn { tiles_of(pixel_box(&q)) } else { NO_TILES };
+            *r = if is_drawn { rect } else { NO_TILES };
             *f = FastRec {
                 q: vp.map(|v| v.q),
                 s,

@@ -219,6 +219,11 @@ mod tests {
         step.points[2].s = step.points[1].s;
         step.points[3].s = 0.6180339;
         tfs.push(step);
+        // A point exactly on a sample (2048 of 4095 on [0, 1]): its runs touch, with no bent
+        // interval between them.
+        let mut on_sample = TransferFunction::preset("default").unwrap();
+        on_sample.points[2].s = 2048.0 / 4095.0;
+        tfs.push(on_sample);
         for tf in &tfs {
             let t = TfTable::new(tf, TF_SAMPLES);
             let (lo, scale) = t.domain();
@@ -291,5 +296,10 @@ mod tests {
             stepped.span_over(0.6, 0.63),
             Some(TfSpan::Hinge(_))
         ));
+        let on_sample = TfTable::new(&tfs[4], TF_SAMPLES);
+        let Some(TfSpan::Hinge(h)) = on_sample.span_over(0.45, 0.55) else {
+            panic!("no hinge across a point on a sample");
+        };
+        assert_eq!(h.at, (2048.0f64 / 4095.0) as f32);
     }
 }

@@ -206,15 +206,12 @@ fn empty_space_skipping_keeps_the_image() {
             let a = frame(&mesh, &tf, "bcc-implicit", &cam);
             let b = frame(&mesh, &tf, "bcc-implicit-skip", &cam);
             assert_eq!(a.image.pixels, b.image.pixels, "{name} {view:?}");
-            let skipped = b.counters.iter().find(|c| c.0 == "tets_skipped").unwrap().1;
+            let skipped = b.counter("tets_skipped").unwrap();
             assert!(
                 skipped > 0.2 * mesh.num_tets() as f64,
                 "{name}: {skipped} skipped"
             );
-            assert_eq!(
-                a.counters.iter().find(|c| c.0 == "tets_skipped").unwrap().1,
-                0.0
-            );
+            assert_eq!(a.counter("tets_skipped"), Some(0.0));
         }
     }
 }

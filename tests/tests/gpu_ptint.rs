@@ -55,7 +55,7 @@ fn gpu_format_is_f32() -> bool {
 }
 
 fn counter(f: &Frame, name: &str) -> f64 {
-    f.counters.iter().find(|c| c.0 == name).unwrap().1
+    f.counter(name).unwrap()
 }
 
 /// ptint vs cpu-pt; returns the RMSE.

@@ -71,7 +71,7 @@ fn render(name: &str, mesh: &Mesh, tf: &TransferFunction, cam: &Camera) -> rende
 }
 
 fn counter(f: &render::Frame, k: &str) -> f64 {
-    f.counters.iter().find(|c| c.0 == k).map(|c| c.1).unwrap()
+    f.counter(k).unwrap()
 }
 
 #[test]

@@ -44,6 +44,13 @@ pub struct Frame {
     pub counters: Vec<(&'static str, f64)>,
 }
 
+impl Frame {
+    /// The value of counter `name`, if the renderer reports it.
+    pub fn counter(&self, name: &str) -> Option<f64> {
+        self.counters.iter().find(|c| c.0 == name).map(|c| c.1)
+    }
+}
+
 /// A volume renderer for tetrahedral meshes.
 pub trait Renderer: Send {
     /// The full variant name, e.g. `cpu-pt` or `reference`.

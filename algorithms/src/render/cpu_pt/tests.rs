@@ -97,7 +97,7 @@ fn exact_against_reference(proj: Projection) {
         for topo in [false, true] {
             let f = pt_sorted(&mesh, &tf, &cam, "exact", topo);
             let err = compare(&f.image, &r).unwrap();
-            let c = |n: &str| f.counters.iter().find(|x| x.0 == n).unwrap().1;
+            let c = |n: &str| f.counter(n).unwrap();
             eprintln!(
                 "{} view ({a}, {e}) {}: rmse {:.3e} max {:.3e} cycles {}",
                 proj.name(),
@@ -177,7 +177,7 @@ fn fast_path_matches_f64_path() {
                     r.prepare(&mesh, &tf).unwrap();
                     assert_eq!(r.state.as_ref().unwrap().shading.f32().is_some(), fast);
                     let frame = r.render(&mesh, &cam).unwrap();
-                    let count = |name: &str| frame.counters.iter().find(|c| c.0 == name).unwrap().1;
+                    let count = |name: &str| frame.counter(name).unwrap();
                     let counts = ["tets_drawn", "tets_discarded", "fragments"].map(count);
                     assert!(counts[0] > 0.0);
                     (frame.image, counts)
@@ -231,8 +231,7 @@ fn no_cracks_on_an_axis_aligned_grid_at_view_0_0() {
                 );
             }
         }
-        let c = |n: &str| f.counters.iter().find(|x| x.0 == n).unwrap().1;
-        assert_eq!(c("tets_discarded"), 0.0);
+        assert_eq!(f.counter("tets_discarded"), Some(0.0));
     }
 }
 

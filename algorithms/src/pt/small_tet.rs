@@ -18,8 +18,7 @@ use super::{pixel_box_in, pixel_centre, Case, Fragment};
 /// How a tet fits [`SmallTet::set_up`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Fit {
-    /// No centre inside the clip, a class that is not drawn, or no centre of the box inside
-    /// the silhouette: nothing to draw.
+    /// No centre inside the clip, or a class that is not drawn: nothing to draw.
     Empty,
     /// A box of at most the centres asked for, every fan triangle valid: set up.
     Small,
@@ -73,11 +72,10 @@ impl SmallTet {
         for tri in 0..n {
             [t.sil[tri], t.sst[tri], t.ssr[tri]] = silhouette_edge(c, q, tri).stepped(p);
         }
-        if !t.any_centre_inside(n, w, h) {
-            // Many few-centre tets cover no centre at all (on post at 512², 89 844 of 197 947
-            // a frame); they need neither fan edges, nor normalisers, nor their centres queued.
-            return Fit::Empty;
-        }
+        // (A box with no centre inside the silhouette was mostly left out of every tile by the
+        // project stage, [`hull_misses_centres`]; the few left, in a tile beside those it
+        // covers centres of, queue their centres and advance past none. Testing them here
+        // again cost ~110 instructions a few-centre tet, 9.5 M of post's draw at 512².)
         let dirs = fan_dirs(c, q);
         (t.ia, t.ja, t.w, t.h, t.valid) = (ia, ja, w, h, (1 << n) - 1);
         // (Fan edges past n and their steps stay 0: their bits are never set. The silhouette
@@ -99,28 +97,6 @@ impl SmallTet {
             t.inv_y[tri] = 1.0 / n_y as f64;
         }
         Fit::Small
-    }
-
-    /// Whether some centre of the `w`×`h` box is on the inner side of (or on) the silhouette
-    /// edge of every fan triangle, `sil[..n]`. That is necessary for a centre to be covered:
-    /// the fan tiles the silhouette, a convex polygon, and each triangle's silhouette edge is
-    /// one of the polygon's edges (for the open fans of classes 3 and 4 the others lie on the
-    /// line through the thick vertex), positive on the polygon's side. So a centre in a
-    /// (closed) fan triangle has each such edge's unbiased value ≥ 0, and its biased one
-    /// (`+ b`, b ∈ {0, 1}) too. A box where no centre passes draws nothing.
-    #[inline(always)]
-    fn any_centre_inside(&self, n: usize, w: i64, h: i64) -> bool {
-        let mut any = false;
-        for dj in 0..h {
-            for di in 0..w {
-                let mut all = true;
-                for k in 0..n {
-                    all &= self.sil[k] + di * self.sst[k] + dj * self.ssr[k] >= 0;
-                }
-                any |= all;
-            }
-        }
-        any
     }
 
     /// Centre `(ia + di, ja + dj)`: its fan triangle as one bit (bit k: triangle k; 0 where it
@@ -158,29 +134,249 @@ impl SmallTet {
     }
 }
 
+/// Whether no centre of the `w`×`h` pixel box from pixel `(ia, ja)` lies in the closed convex
+/// hull of the four snapped points `q`: for the project stage, which leaves such a tet out of
+/// every tile before it is classified (on `post` at 512², 89 844 of the draw's 197 947
+/// few-centre tets covered no centre, and each cost its set-up there, its record and its bins).
+/// Boxes wider or taller than 4 centres are not tested (`false`).
+///
+/// Conservative, never wrong the other way: a centre that [`raster_fan`](super::raster_fan)
+/// covers is in a closed fan triangle, which lies in the silhouette, the hull of `q`. The hull
+/// of four points is the union of the four triangles of three of them (Carathéodory), and a
+/// centre is in one iff [`in_closed_triangle`] holds for the signs of its six orientations.
+/// Exact: with every vertex within 5 pixels of every centre of the box (the box is the centres
+/// between the vertices' extremes), |x| < 5·2¹² < 2¹⁵, so an orientation, a difference of two
+/// products of such coordinates, is below 2³¹: exact in i32.
+///
+/// This is the definition; [`hull_misses_centres_in`] is the same in AVX2 where there is AVX2.
+#[inline(always)]
+pub fn hull_misses_centres(q: &[[i64; 2]; 4], ia: i64, ja: i64, w: i64, h: i64) -> bool {
+    if w > 4 || h > 4 {
+        return false;
+    }
+    let (x0, y0) = centred(q, ia, ja);
+    for dj in 0..h as i32 {
+        for di in 0..w as i32 {
+            let (ox, oy) = (di << super::SUBPIXEL_BITS, dj << super::SUBPIXEL_BITS);
+            let (x, y) = (x0.map(|v| v - ox), y0.map(|v| v - oy));
+            debug_assert!(
+                x.iter().chain(&y).all(|v| v.abs() < 1 << 15),
+                "{q:?} {ia} {ja}"
+            );
+            // o(i, j, p) = (q_j − q_i) × (p − q_i) = x_i·y_j − y_i·x_j with p at the origin.
+            let o = |i: usize, j: usize| x[i] * y[j] - y[i] * x[j];
+            let o = [o(0, 1), o(0, 2), o(0, 3), o(1, 2), o(1, 3), o(2, 3)];
+            let (mut pos, mut neg) = (0u32, 0u32);
+            for (m, &v) in o.iter().enumerate() {
+                pos |= ((v > 0) as u32) << m;
+                neg |= ((v < 0) as u32) << m;
+            }
+            if in_closed_triangle(pos, neg) {
+                return false;
+            }
+        }
+    }
+    true
+}
+
+/// The vertices' coordinates relative to the centre of pixel `(ia, ja)`, as i32 (see
+/// [`hull_misses_centres`] for why they fit).
+#[inline(always)]
+fn centred(q: &[[i64; 2]; 4], ia: i64, ja: i64) -> ([i32; 4], [i32; 4]) {
+    let p = [pixel_centre(ia), pixel_centre(ja)];
+    (
+        q.map(|v| (v[0] - p[0]) as i32),
+        q.map(|v| (v[1] - p[1]) as i32),
+    )
+}
+
+/// Whether a point is in one of the closed triangles (0, 1, 2), (0, 1, 3), (0, 2, 3), (1, 2, 3)
+/// of four points, from the signs of its orientations o(i, j, p), i < j, in the order 01, 02,
+/// 03, 12, 13, 23 (bit m of `pos`: pair m's is > 0; of `neg`: < 0). It is in the closed
+/// triangle (i, j, k) iff o(i, j), o(j, k) and o(k, i) = −o(i, k) are all ≥ 0 or all ≤ 0 (a
+/// flat triangle passes only points on its line, which is conservative for the hull).
+const fn in_closed_triangle(pos: u32, neg: u32) -> bool {
+    // Per triangle, the pairs taken with + (o(i, j), o(j, k)) and the one taken with −.
+    const PLUS: [u32; 4] = [0b00_1001, 0b01_0001, 0b10_0010, 0b10_1000];
+    const MINUS: [u32; 4] = [0b00_0010, 0b00_0100, 0b00_0100, 0b01_0000];
+    let mut t = 0;
+    while t < 4 {
+        let (a, b) = (PLUS[t], MINUS[t]);
+        if (neg & a) | (pos & b) == 0 || (pos & a) | (neg & b) == 0 {
+            return true;
+        }
+        t += 1;
+    }
+    false
+}
+
+/// [`in_closed_triangle`] for every `pos | neg << 6`, one bit each (512 bytes, in the binary).
+#[cfg(target_arch = "x86_64")]
+static IN_TRIANGLE: [u64; 64] = {
+    let mut t = [0u64; 64];
+    let mut i = 0;
+    while i < 4096 {
+        if in_closed_triangle(i & 63, i >> 6) {
+            t[(i >> 6) as usize] |= 1 << (i & 63);
+        }
+        i += 1;
+    }
+    t
+};
+
+/// [`hull_misses_centres`] on `simd`: with AVX2 the six orientations of a centre are one
+/// vector (two products of permuted coordinates) and its signs two masks, ~20 instructions a
+/// centre where the scalar form took ~120 (post at 512²: 47.1 M a frame, as much as it saved
+/// the draw); otherwise the scalar form. The same answers (`hull_test_in_avx2_is_the_scalar_one`).
+#[inline(always)]
+pub fn hull_misses_centres_in<S: pulp::Simd>(
+    simd: S,
+    q: &[[i64; 2]; 4],
+    ia: i64,
+    ja: i64,
+    w: i64,
+    h: i64,
+) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(&v3) = (&simd as &dyn std::any::Any).downcast_ref::<pulp::x86::V3>() {
+        return hull_misses_centres_v3(v3, q, ia, ja, w, h);
+    }
+    let _ = simd;
+    hull_misses_centres(q, ia, ja, w, h)
+}
+
+/// Whether centre `[di, dj]` of [`hull_misses_centres_v3`]'s box is in the hull, as bit 0: its
+/// orientations from those at the first centre, `o0`, and their steps `dy`, `dx`. (A function,
+/// not a closure: a closure does not inherit the caller's target features, and left out of line
+/// each intrinsic in it was a call: the project stage ran 3.2× slower.)
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn centre_in_hull_v3(
+    v3: pulp::x86::V3,
+    o0: std::arch::x86_64::__m256i,
+    dy: std::arch::x86_64::__m256i,
+    dx: std::arch::x86_64::__m256i,
+    [di, dj]: [i32; 2],
+) -> u64 {
+    use std::arch::x86_64::__m256i;
+    let x2 = v3.avx2;
+    let (sx, sy) = (di << super::SUBPIXEL_BITS, dj << super::SUBPIXEL_BITS);
+    let splat = |a: i32| -> __m256i { bytemuck::cast([a; 8]) };
+    let o = x2._mm256_add_epi32(o0, x2._mm256_mullo_epi32(dy, splat(sx)));
+    let o = x2._mm256_add_epi32(o, x2._mm256_mullo_epi32(dx, splat(sy)));
+    let zero = splat(0);
+    let pos = v3
+        .avx
+        ._mm256_movemask_ps(bytemuck::cast(x2._mm256_cmpgt_epi32(o, zero))) as u32;
+    let neg = v3
+        .avx
+        ._mm256_movemask_ps(bytemuck::cast(x2._mm256_cmpgt_epi32(zero, o))) as u32;
+    let i = pos | neg << 6;
+    IN_TRIANGLE[(i >> 6) as usize] >> (i & 63)
+}
+
+/// The centres `[di, dj]` of a `w`×`h` box of at most four, at index `(w − 1)·4 + h − 1`, by
+/// rows, padded to four with the first.
+#[cfg(target_arch = "x86_64")]
+const BOX_CENTRES: [[[i32; 2]; 4]; 16] = {
+    let mut t = [[[0; 2]; 4]; 16];
+    let mut w = 1;
+    while w <= 4 {
+        let mut h = 1;
+        while h <= 4 {
+            let mut k = 0;
+            while k < w * h && w * h <= 4 {
+                t[((w - 1) * 4 + h - 1) as usize][k as usize] = [k % w, k / w];
+                k += 1;
+            }
+            h += 1;
+        }
+        w += 1;
+    }
+    t
+};
+
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn hull_misses_centres_v3(
+    v3: pulp::x86::V3,
+    q: &[[i64; 2]; 4],
+    ia: i64,
+    ja: i64,
+    w: i64,
+    h: i64,
+) -> bool {
+    use std::arch::x86_64::__m256i;
+    if w > 4 || h > 4 {
+        return false;
+    }
+    let (x, y) = centred(q, ia, ja);
+    let v: __m256i = bytemuck::cast([x, y]);
+    let x2 = v3.avx2;
+    let lanes = |a: [i32; 8]| -> __m256i { bytemuck::cast(a) };
+    // Lanes m < 6 for pair (i, j) of 01, 02, 03, 12, 13, 23: x_i, y_j, y_i, x_j (`v` is x0..x3,
+    // y0..y3). Lanes 6 and 7 compute x0·y0 − y0·x0 = 0, which sets neither mask.
+    let (xi, yj) = (
+        lanes([0, 0, 0, 1, 1, 2, 0, 0]),
+        lanes([5, 6, 7, 6, 7, 7, 4, 4]),
+    );
+    let (yi, xj) = (
+        lanes([4, 4, 4, 5, 5, 6, 4, 4]),
+        lanes([1, 2, 3, 2, 3, 3, 0, 0]),
+    );
+    let (axi, ayj) = (
+        x2._mm256_permutevar8x32_epi32(v, xi),
+        x2._mm256_permutevar8x32_epi32(v, yj),
+    );
+    let (ayi, axj) = (
+        x2._mm256_permutevar8x32_epi32(v, yi),
+        x2._mm256_permutevar8x32_epi32(v, xj),
+    );
+    // At the first centre, and per centre δ (snapped units) from it, o(p + δ) = o(p) +
+    // δx·(y_i − y_j) + δy·(x_j − x_i): each sum on the way is an orientation at a centre of the
+    // box, so none leaves i32.
+    let o0 = x2._mm256_sub_epi32(
+        x2._mm256_mullo_epi32(axi, ayj),
+        x2._mm256_mullo_epi32(ayi, axj),
+    );
+    let (dy, dx) = (x2._mm256_sub_epi32(ayi, ayj), x2._mm256_sub_epi32(axj, axi));
+    if w * h <= 4 {
+        // The boxes the project stage asks about: four centres, always, with no branch on the
+        // box's shape or on which centre is in (the repeats of the first centre change no
+        // answer). Branches per centre mispredicted: the stage's wall time grew by 12 % where
+        // its instructions grew by 2 %.
+        let mut any = 0;
+        for c in BOX_CENTRES[((w - 1) * 4 + h - 1) as usize] {
+            any |= centre_in_hull_v3(v3, o0, dy, dx, c);
+        }
+        return any & 1 == 0;
+    }
+    for dj in 0..h as i32 {
+        for di in 0..w as i32 {
+            if centre_in_hull_v3(v3, o0, dy, dx, [di, dj]) & 1 != 0 {
+                return false;
+            }
+        }
+    }
+    true
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::pt::tests::{assert_same_fragments, fan_points, Rng};
-    use crate::pt::{classify, raster_fan, FanGeometry, ProjVertex};
+    use crate::pt::{classify, raster_fan, FanGeometry, ProjVertex, SUBPIXEL};
 
     /// The same centres, triangles and weights as the per-triangle rasteriser, on the fans of
     /// `tet_rasteriser_matches_per_pixel_rasteriser` shrunk to a few pixels (lattice, random,
-    /// degenerate) and clipped; a box of more centres than asked for is left to the rows, a
-    /// tet with nothing inside the clip draws nothing, and neither does a fan whose box has no
-    /// centre inside its silhouette (`culled`: those must be fans `raster_fan` draws
-    /// nothing of, centres on the silhouette's edges included).
+    /// degenerate) and clipped; a box of more centres than asked for is left to the rows, and a
+    /// tet with nothing inside the clip draws nothing.
     #[test]
     fn small_tet_matches_per_pixel_rasteriser() {
         let mut rng = Rng::new(31);
-        let (mut small, mut empty, mut large, mut frags, mut culled) = (0, 0, 0, 0, 0);
+        let (mut small, mut empty, mut large, mut frags) = (0, 0, 0, 0);
         for it in 0..20_000 {
-            // Kinds 1–3 are a few pixels wide; kind 0 shrunk by 8 to a few pixels too.
-            let mode = it % 4;
-            let mut q = fan_points(&mut rng, mode);
-            if mode == 0 {
-                q = q.map(|p| p.map(|x| x / 8));
-            }
+            let q = few_pixel_fan(&mut rng, it);
             let v = q.map(|q| ProjVertex {
                 q,
                 ..Default::default()
@@ -193,10 +389,7 @@ mod tests {
                 let mut got = Vec::new();
                 let mut t = SmallTet::default();
                 match t.set_up(g.case, &q, clip, 6) {
-                    Fit::Empty => {
-                        empty += 1;
-                        culled += (g.case.drawn() && pixel_box_in(&q, clip).is_some()) as usize;
-                    }
+                    Fit::Empty => empty += 1,
                     Fit::Large => {
                         large += 1;
                         continue;
@@ -212,9 +405,80 @@ mod tests {
             }
         }
         assert!(
-            small > 5_000 && empty > 1_000 && large > 1_000 && culled > 1_000,
-            "{small} {empty} {large} {culled}"
+            small > 5_000 && empty > 1_000 && large > 1_000,
+            "{small} {empty} {large}"
         );
         assert!(frags > 5_000, "{frags}");
+    }
+
+    /// The fans of `tet_rasteriser_matches_per_pixel_rasteriser`, shrunk to a few pixels: kinds
+    /// 1–3 (random, lattice, degenerate) are a few pixels wide; kind 0 is shrunk by 8.
+    fn few_pixel_fan(rng: &mut Rng, it: usize) -> [[i64; 2]; 4] {
+        let mode = it % 4;
+        let q = fan_points(rng, mode);
+        if mode == 0 {
+            q.map(|p| p.map(|x| x / 8))
+        } else {
+            q
+        }
+    }
+
+    /// `hull_misses_centres` never leaves out a tet that covers a centre: where it says its box
+    /// has no centre in the hull, `raster_fan` draws nothing of it (centres on the silhouette's
+    /// edges included, and flat tets); it says so often, and never for a box wider or taller than
+    /// 4 centres. Its AVX2 form gives the same answers, where the host has AVX2.
+    #[test]
+    fn hull_test_misses_only_empty_boxes() {
+        let mut rng = Rng::new(47);
+        let (mut tested, mut missed) = (0, 0);
+        let s = SUBPIXEL;
+        for it in 0..40_000 {
+            // Tets of a pixel or a few at a random place: random, on the half-pixel lattice
+            // (vertices on centres and on pixels' corners; shared and collinear points), flat
+            // (four points on a line through a centre, or near one), and the fans above.
+            let (o, size) = (
+                [rng.int(8 * s as u64), rng.int(8 * s as u64)],
+                [s / 2, s, 2 * s, 4 * s],
+            );
+            let size = size[rng.int(4) as usize];
+            let q: [[i64; 2]; 4] = match it % 4 {
+                0 => std::array::from_fn(|_| o.map(|o| o + rng.int(size as u64))),
+                1 => std::array::from_fn(|_| o.map(|o| o / s * s + rng.int(6) * s / 2)),
+                2 => {
+                    let d = [rng.int(2 * s as u64) - s, rng.int(2 * s as u64) - s];
+                    let c = [pixel_centre(3) + rng.int(3) - 1, pixel_centre(4)];
+                    std::array::from_fn(|_| {
+                        let t = rng.int(5) - 2;
+                        [c[0] + t * d[0] / 2, c[1] + t * d[1] / 2]
+                    })
+                }
+                _ => few_pixel_fan(&mut rng, it / 4),
+            };
+            let [ia, ja, ib, jb] = crate::pt::pixel_box(&q);
+            let (w, h) = (ib - ia + 1, jb - ja + 1);
+            if w < 1 || h < 1 {
+                continue;
+            }
+            let miss = hull_misses_centres(&q, ia, ja, w, h);
+            #[cfg(target_arch = "x86_64")]
+            if let Some(v3) = pulp::x86::V3::try_new() {
+                assert_eq!(hull_misses_centres_in(v3, &q, ia, ja, w, h), miss, "{q:?}");
+            }
+            if w > 4 || h > 4 {
+                assert!(!miss, "{q:?}");
+                continue;
+            }
+            tested += 1;
+            if miss {
+                missed += 1;
+                let v = q.map(|q| ProjVertex {
+                    q,
+                    ..Default::default()
+                });
+                let g = FanGeometry::new(q, &classify(&v, false, 1.0));
+                raster_fan(&g, [-64, -64, 64, 64], |f| panic!("{q:?} covers {f:?}"));
+            }
+        }
+        assert!(tested > 10_000 && missed > 5_000, "{tested} {missed}");
     }
 }

@@ -497,7 +497,7 @@ fn small(
 /// The most centres a tet's pixel box may hold for [`small`] to draw it (boxes of up to 1, 2, 4,
 /// 8 and 16 centres: post's draw 0.886, 0.859, 0.850, 0.851, 0.891 of the rows' for all, in one
 /// interleaved run; `docs/performance.md`, thirteenth pass).
-const SMALL_CENTRES: i64 = 4;
+pub(super) const SMALL_CENTRES: i64 = 4;
 
 /// How many tets ahead `draw_tile` prefetches.
 const PREFETCH: usize = 8;

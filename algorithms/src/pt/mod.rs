@@ -38,7 +38,7 @@ mod tet_raster;
 
 pub use faces::{fan_segment, FaceSegment, FaceVertex};
 pub use raster::{
-    pixel_box, pixel_box_in, raster_fan, raster_fan_rows, FanGeometry, Fragment, Row,
+    pixel_box, pixel_box_i32, pixel_box_in, raster_fan, raster_fan_rows, FanGeometry, Fragment, Row,
 };
 pub use small_tet::{hull_misses_centres, hull_misses_centres_in, Fit, SmallTet};
 pub use tet_raster::{fan_bits, wedge, TetRaster, TetRow, MAX_FAN};

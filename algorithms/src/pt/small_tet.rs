@@ -56,12 +56,26 @@ impl SmallTet {
     /// draw keeps one, and a returned value of this size was copied by `memcpy`.)
     #[inline(always)]
     pub fn set_up(&mut self, c: &Case, q: &[[i64; 2]; 4], clip: [i64; 4], max_centres: i64) -> Fit {
+        match pixel_box_in(q, clip) {
+            Some(bx) => self.set_up_in(c, q, bx, max_centres),
+            None => Fit::Empty,
+        }
+    }
+
+    /// [`SmallTet::set_up`] for the tet's pixel box within the clip, `bx` (not empty), which the
+    /// caller has found ([`pixel_box_i32`](super::pixel_box_i32)).
+    #[inline(always)]
+    pub fn set_up_in(
+        &mut self,
+        c: &Case,
+        q: &[[i64; 2]; 4],
+        bx: [i64; 4],
+        max_centres: i64,
+    ) -> Fit {
         if !c.drawn() {
             return Fit::Empty;
         }
-        let Some([ia, ja, ib, jb]) = pixel_box_in(q, clip) else {
-            return Fit::Empty;
-        };
+        let [ia, ja, ib, jb] = bx;
         let (w, h) = (ib - ia + 1, jb - ja + 1);
         if w * h > max_centres {
             return Fit::Large;
@@ -72,10 +86,9 @@ impl SmallTet {
         for tri in 0..n {
             [t.sil[tri], t.sst[tri], t.ssr[tri]] = silhouette_edge(c, q, tri).stepped(p);
         }
-        // (A box with no centre inside the silhouette was mostly left out of every tile by the
-        // project stage, [`hull_misses_centres`]; the few left, in a tile beside those it
-        // covers centres of, queue their centres and advance past none. Testing them here
-        // again cost ~110 instructions a few-centre tet, 9.5 M of post's draw at 512².)
+        // (A box with no centre inside the silhouette queues its centres and advances past
+        // none. The draw leaves such boxes out before this, [`hull_misses_centres_in`], which
+        // replaced a test of the centres against these silhouette edges here.)
         let dirs = fan_dirs(c, q);
         (t.ia, t.ja, t.w, t.h, t.valid) = (ia, ja, w, h, (1 << n) - 1);
         // (Fan edges past n and their steps stay 0: their bits are never set. The silhouette
@@ -134,24 +147,31 @@ impl SmallTet {
     }
 }
 
-/// Whether no centre of the `w`×`h` pixel box from pixel `(ia, ja)` lies in the closed convex
-/// hull of the four snapped points `q`: for the project stage, which leaves such a tet out of
-/// every tile before it is classified (on `post` at 512², 89 844 of the draw's 197 947
-/// few-centre tets covered no centre, and each cost its set-up there, its record and its bins).
-/// Boxes wider or taller than 4 centres are not tested (`false`).
+/// Whether no centre of the inclusive pixel box `bx` (columns `bx[0]..=bx[2]`, rows
+/// `bx[1]..=bx[3]`) lies in the closed convex hull of the four snapped points `q`: for the draw,
+/// which skips such a tet before its set-up (on `post` at 512², 89 844 of 197 947 few-centre
+/// tets covered no centre). `bx` must lie in the pixel box of `q` ([`pixel_box`]), and that box
+/// must hold at most 4 centres (a tile's part of a larger tet is not asked about: see below).
+/// A `bx` of more than 4 centres is not tested (`false`); an empty one has none (`true`).
 ///
 /// Conservative, never wrong the other way: a centre that [`raster_fan`](super::raster_fan)
 /// covers is in a closed fan triangle, which lies in the silhouette, the hull of `q`. The hull
 /// of four points is the union of the four triangles of three of them (Carathéodory), and a
 /// centre is in one iff [`in_closed_triangle`] holds for the signs of its six orientations.
-/// Exact: with every vertex within 5 pixels of every centre of the box (the box is the centres
-/// between the vertices' extremes), |x| < 5·2¹² < 2¹⁵, so an orientation, a difference of two
-/// products of such coordinates, is below 2³¹: exact in i32.
+/// Exact: every vertex is within 5 pixels of every centre of a pixel box of at most 4 (the box
+/// is the centres between the vertices' extremes), |x| < 5·2¹² < 2¹⁵, so an orientation, a
+/// difference of two products of such coordinates, is below 2³¹: exact in i32.
+///
+/// [`pixel_box`]: super::pixel_box
 ///
 /// This is the definition; [`hull_misses_centres_in`] is the same in AVX2 where there is AVX2.
 #[inline(always)]
-pub fn hull_misses_centres(q: &[[i64; 2]; 4], ia: i64, ja: i64, w: i64, h: i64) -> bool {
-    if w > 4 || h > 4 {
+pub fn hull_misses_centres(q: &[[i64; 2]; 4], bx: [i64; 4]) -> bool {
+    let (ia, ja, w, h) = (bx[0], bx[1], bx[2] - bx[0] + 1, bx[3] - bx[1] + 1);
+    if w < 1 || h < 1 {
+        return true;
+    }
+    if w * h > 4 {
         return false;
     }
     let (x0, y0) = centred(q, ia, ja);
@@ -225,24 +245,17 @@ static IN_TRIANGLE: [u64; 64] = {
 };
 
 /// [`hull_misses_centres`] on `simd`: with AVX2 the six orientations of a centre are one
-/// vector (two products of permuted coordinates) and its signs two masks, ~20 instructions a
-/// centre where the scalar form took ~120 (post at 512²: 47.1 M a frame, as much as it saved
-/// the draw); otherwise the scalar form. The same answers (`hull_test_in_avx2_is_the_scalar_one`).
+/// vector and its signs two masks, ~15 instructions a centre where the scalar form took ~120
+/// (post at 512²: 47.1 M a frame, as much as it saved the draw), and no branch; otherwise the
+/// scalar form. The same answers (`hull_test_in_avx2_is_the_scalar_one`).
 #[inline(always)]
-pub fn hull_misses_centres_in<S: pulp::Simd>(
-    simd: S,
-    q: &[[i64; 2]; 4],
-    ia: i64,
-    ja: i64,
-    w: i64,
-    h: i64,
-) -> bool {
+pub fn hull_misses_centres_in<S: pulp::Simd>(simd: S, q: &[[i64; 2]; 4], bx: [i64; 4]) -> bool {
     #[cfg(target_arch = "x86_64")]
     if let Some(&v3) = (&simd as &dyn std::any::Any).downcast_ref::<pulp::x86::V3>() {
-        return hull_misses_centres_v3(v3, q, ia, ja, w, h);
+        return hull_misses_centres_v3(v3, q, bx);
     }
     let _ = simd;
-    hull_misses_centres(q, ia, ja, w, h)
+    hull_misses_centres(q, bx)
 }
 
 /// Whether centre `[di, dj]` of [`hull_misses_centres_v3`]'s box is in the hull, as bit 0: its
@@ -276,7 +289,7 @@ fn centre_in_hull_v3(
 }
 
 /// The centres `[di, dj]` of a `w`×`h` box of at most four, at index `(w − 1)·4 + h − 1`, by
-/// rows, padded to four with the first.
+/// rows, padded to four with the first (a larger box's entry is four times the first).
 #[cfg(target_arch = "x86_64")]
 const BOX_CENTRES: [[[i32; 2]; 4]; 16] = {
     let mut t = [[[0; 2]; 4]; 16];
@@ -298,18 +311,15 @@ const BOX_CENTRES: [[[i32; 2]; 4]; 16] = {
 
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-fn hull_misses_centres_v3(
-    v3: pulp::x86::V3,
-    q: &[[i64; 2]; 4],
-    ia: i64,
-    ja: i64,
-    w: i64,
-    h: i64,
-) -> bool {
+fn hull_misses_centres_v3(v3: pulp::x86::V3, q: &[[i64; 2]; 4], bx: [i64; 4]) -> bool {
     use std::arch::x86_64::__m256i;
-    if w > 4 || h > 4 {
-        return false;
-    }
+    let (ia, ja, w, h) = (bx[0], bx[1], bx[2] - bx[0] + 1, bx[3] - bx[1] + 1);
+    // No branch on the box: in the visibility order its shape and each centre's answer are
+    // coin tosses (asked by the project stage of every tet, a form with such branches grew
+    // the stage's wall time by 12 % for 2 % more instructions). Every box is computed as one
+    // of at most four centres (a larger one's values, wrapped in i32, are discarded) and the
+    // answer chosen by its size.
+    let (empty, few) = (w < 1 || h < 1, w * h <= 4);
     let (x, y) = centred(q, ia, ja);
     let v: __m256i = bytemuck::cast([x, y]);
     let x2 = v3.avx2;
@@ -340,25 +350,12 @@ fn hull_misses_centres_v3(
         x2._mm256_mullo_epi32(ayi, axj),
     );
     let (dy, dx) = (x2._mm256_sub_epi32(ayi, ayj), x2._mm256_sub_epi32(axj, axi));
-    if w * h <= 4 {
-        // The boxes the project stage asks about: four centres, always, with no branch on the
-        // box's shape or on which centre is in (the repeats of the first centre change no
-        // answer). Branches per centre mispredicted: the stage's wall time grew by 12 % where
-        // its instructions grew by 2 %.
-        let mut any = 0;
-        for c in BOX_CENTRES[((w - 1) * 4 + h - 1) as usize] {
-            any |= centre_in_hull_v3(v3, o0, dy, dx, c);
-        }
-        return any & 1 == 0;
+    let mut any = 0;
+    for c in BOX_CENTRES[((w.clamp(1, 4) - 1) * 4 + h.clamp(1, 4) - 1) as usize] {
+        // (The repeats of the first centre, in a box of fewer than four, change no answer.)
+        any |= centre_in_hull_v3(v3, o0, dy, dx, c);
     }
-    for dj in 0..h as i32 {
-        for di in 0..w as i32 {
-            if centre_in_hull_v3(v3, o0, dy, dx, [di, dj]) & 1 != 0 {
-                return false;
-            }
-        }
-    }
-    true
+    empty | (few & (any & 1 == 0))
 }
 
 #[cfg(test)]
@@ -423,10 +420,10 @@ mod tests {
         }
     }
 
-    /// `hull_misses_centres` never leaves out a tet that covers a centre: where it says its box
-    /// has no centre in the hull, `raster_fan` draws nothing of it (centres on the silhouette's
-    /// edges included, and flat tets); it says so often, and never for a box wider or taller than
-    /// 4 centres. Its AVX2 form gives the same answers, where the host has AVX2.
+    /// `hull_misses_centres` never leaves out a tet that covers a centre: where it says a box
+    /// (the tet's, or a part of it) has no centre in the hull, `raster_fan` draws nothing of the
+    /// tet there (centres on the silhouette's edges included, and flat tets); it says so often,
+    /// always for an empty box and never for a box of more than 4 centres. Its AVX2 form gives the same answers, where the host has AVX2.
     #[test]
     fn hull_test_misses_only_empty_boxes() {
         let mut rng = Rng::new(47);
@@ -454,29 +451,39 @@ mod tests {
                 }
                 _ => few_pixel_fan(&mut rng, it / 4),
             };
-            let [ia, ja, ib, jb] = crate::pt::pixel_box(&q);
-            let (w, h) = (ib - ia + 1, jb - ja + 1);
-            if w < 1 || h < 1 {
-                continue;
-            }
-            let miss = hull_misses_centres(&q, ia, ja, w, h);
-            #[cfg(target_arch = "x86_64")]
-            if let Some(v3) = pulp::x86::V3::try_new() {
-                assert_eq!(hull_misses_centres_in(v3, &q, ia, ja, w, h), miss, "{q:?}");
-            }
-            if w > 4 || h > 4 {
-                assert!(!miss, "{q:?}");
-                continue;
-            }
-            tested += 1;
-            if miss {
-                missed += 1;
-                let v = q.map(|q| ProjVertex {
-                    q,
-                    ..Default::default()
-                });
-                let g = FanGeometry::new(q, &classify(&v, false, 1.0));
-                raster_fan(&g, [-64, -64, 64, 64], |f| panic!("{q:?} covers {f:?}"));
+            // The tet's pixel box, and a part of it (as a tile's clip leaves of it).
+            let whole = crate::pt::pixel_box(&q);
+            let (w, h) = (whole[2] - whole[0] + 1, whole[3] - whole[1] + 1);
+            let part = [0, 1, 2, 3].map(|k| whole[k] + [1, 1, -1, -1][k] * rng.int(2));
+            for bx in [whole, part] {
+                let (bw, bh) = (bx[2] - bx[0] + 1, bx[3] - bx[1] + 1);
+                if w * h > 4 && bw * bh <= 4 && bw > 0 && bh > 0 {
+                    // A small part of a larger tet: not to be asked about.
+                    continue;
+                }
+                let miss = hull_misses_centres(&q, bx);
+                #[cfg(target_arch = "x86_64")]
+                if let Some(v3) = pulp::x86::V3::try_new() {
+                    assert_eq!(hull_misses_centres_in(v3, &q, bx), miss, "{q:?} {bx:?}");
+                }
+                if bw < 1 || bh < 1 {
+                    assert!(miss, "{q:?} {bx:?}");
+                    continue;
+                }
+                if bw * bh > 4 {
+                    assert!(!miss, "{q:?} {bx:?}");
+                    continue;
+                }
+                tested += 1;
+                if miss {
+                    missed += 1;
+                    let v = q.map(|q| ProjVertex {
+                        q,
+                        ..Default::default()
+                    });
+                    let g = FanGeometry::new(q, &classify(&v, false, 1.0));
+                    raster_fan(&g, bx, |f| panic!("{q:?} covers {f:?} in {bx:?}"));
+                }
             }
         }
         assert!(tested > 10_000 && missed > 5_000, "{tested} {missed}");

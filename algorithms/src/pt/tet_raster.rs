@@ -303,11 +303,18 @@ impl TetRaster {
     /// rectangle `clip = [i0, j0, i1, j1]`; `None` when nothing is drawn there.
     #[inline(always)]
     pub fn new(c: &Case, q: &[[i64; 2]; 4], clip: [i64; 4]) -> Option<TetRaster> {
+        TetRaster::new_in(c, q, pixel_box_in(q, clip)?)
+    }
+
+    /// [`TetRaster::new`] for the tet's pixel box within the clip, `bx` (not empty), which the
+    /// caller has found ([`pixel_box_i32`](super::pixel_box_i32)).
+    #[inline(always)]
+    pub fn new_in(c: &Case, q: &[[i64; 2]; 4], bx: [i64; 4]) -> Option<TetRaster> {
         if !c.drawn() {
             return None;
         }
         let n = c.ntri as usize;
-        let [ia, j0, ib, j1] = pixel_box_in(q, clip)?;
+        let [ia, j0, ib, j1] = bx;
         let p = [pixel_centre(ia), pixel_centre(j0)];
         let mut r = TetRaster {
             ntri: n,

@@ -5,15 +5,15 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::fast::{FastRec, SMALL_CENTRES};
+use super::fast::FastRec;
 use super::{Prepared, Scratch, TILE};
+use crate::render::prefetch;
 use crate::camera::{Camera, Projection};
 use crate::mesh::Mesh;
 use crate::pt::{
-    classify, classify_ortho, hull_misses_centres_in, pixel_box, snap, table_index, tests,
-    FanGeometry, ProjVertex, Thick, TABLE,
+    classify, classify_ortho, pixel_box, snap, table_index, tests, FanGeometry, ProjVertex,
+    Thick, TABLE,
 };
-use crate::render::prefetch;
 
 /// Tets a task of the fast path's project stage takes.
 const CHUNK: usize = 4096;
@@ -164,16 +164,8 @@ struct FastChunk<'a, F> {
 impl<F: Fn([i64; 4]) -> TileRect> pulp::WithSimd for FastChunk<'_, F> {
     type Output = usize;
     #[inline(always)]
-    fn with_simd<S: pulp::Simd>(self, simd: S) -> usize {
-        let FastChunk {
-            ids,
-            fr,
-            rects,
-            tets,
-            verts,
-            inv_l,
-            tiles_of,
-        } = self;
+    fn with_simd<S: pulp::Simd>(self, _simd: S) -> usize {
+        let FastChunk { ids, fr, rects, tets, verts, inv_l, tiles_of } = self;
         // In the visibility order the tets and their vertices are read at random: each chunk
         // asks for the tet `AHEAD` places ahead, and for the vertices of the one half as far
         // ahead (whose tet was asked for then).
@@ -195,20 +187,11 @@ impl<F: Fn([i64; 4]) -> TileRect> pulp::WithSimd for FastChunk<'_, F> {
             // instructions a tet.)
             let vp = t.map(|v| &verts[v as usize]);
             let q = vp.map(|v| [v.q[0] as i64, v.q[1] as i64]);
-            let b = pixel_box(&q);
-            let mut rect = tiles_of(b);
-            let (w, h) = (b[2] - b[0] + 1, b[3] - b[1] + 1);
-            if rect != NO_TILES
-                && w * h <= SMALL_CENTRES
-                && hull_misses_centres_in(simd, &q, b[0], b[1], w, h)
-            {
-                // A box of a few centres, none of them in the tet's silhouette: drawn nowhere.
-                rect = NO_TILES;
-            }
+            let rect = tiles_of(pixel_box(&q));
             if rect == NO_TILES {
-                // No pixel centre of the image in its box, or none it covers: the tet is in no
-                // tile, so its record is never read. Only its class is counted (`tets_drawn`);
-                // its hull points, ~120 instructions, and its record's write are skipped.
+                // No pixel centre of the image in its box: the tet is in no tile, so its record
+                // is never read. Only its class is counted (`tets_drawn`); its hull points, ~120
+                // instructions, and its record's write are skipped.
                 drawn += TABLE[table_index(&tests(&q))].drawn() as usize;
                 *r = NO_TILES;
                 continue;

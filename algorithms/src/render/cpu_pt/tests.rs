@@ -158,15 +158,18 @@ fn integrators_against_reference() {
 /// (measured: RMSE ≤ 5e-7, max ≤ 4e-5; the TF table is exact but within 1/4095 of the s
 /// range of a control point); and the same counts of drawn tets and fragments, also on 9×7
 /// pixels, where most tets have no centre in their box (the fast path's project stage
-/// classifies those without their hull points).
+/// classifies those without their hull points), and on 300×260, where tets of ~20 pixels
+/// cross the tiles' edges and leave a few centres in a tile (whose test for a few-centre box
+/// must not take them for small tets).
 #[test]
 fn fast_path_matches_f64_path() {
     let mesh = smooth_grid();
     let tf = smooth_tf();
     // (At 9×7 pixels most tets have no pixel centre in their box.)
+    let sizes = [(96, 80), (9, 7), (300, 260)];
     for (proj, (w, h)) in [Projection::Ortho, Projection::Persp]
         .into_iter()
-        .flat_map(|p| [(p, (96, 80)), (p, (9, 7))])
+        .flat_map(|p| sizes.map(|s| (p, s)))
     {
         for (a, e) in VIEWS {
             let cam = Camera::new(&mesh.bbox(), View::new(a, e), proj, w, h);

@@ -247,15 +247,16 @@ static IN_TRIANGLE: [u64; 64] = {
 /// [`hull_misses_centres`] on `simd`: with AVX2 the six orientations of a centre are one
 /// vector and its signs two masks, ~15 instructions a centre where the scalar form took ~120
 /// (post at 512²: 47.1 M a frame, as much as it saved the draw), and no branch; otherwise the
-/// scalar form. The same answers (`hull_test_in_avx2_is_the_scalar_one`).
+/// scalar form. Takes the points as i32, as the fast path's records hold them. The same
+/// answers (`hull_test_misses_only_empty_boxes`).
 #[inline(always)]
-pub fn hull_misses_centres_in<S: pulp::Simd>(simd: S, q: &[[i64; 2]; 4], bx: [i64; 4]) -> bool {
+pub fn hull_misses_centres_in<S: pulp::Simd>(simd: S, q: &[[i32; 2]; 4], bx: [i64; 4]) -> bool {
     #[cfg(target_arch = "x86_64")]
     if let Some(&v3) = (&simd as &dyn std::any::Any).downcast_ref::<pulp::x86::V3>() {
         return hull_misses_centres_v3(v3, q, bx);
     }
     let _ = simd;
-    hull_misses_centres(q, bx)
+    hull_misses_centres(&q.map(|p| p.map(i64::from)), bx)
 }
 
 /// Whether centre `[di, dj]` of [`hull_misses_centres_v3`]'s box is in the hull, as bit 0: its
@@ -273,7 +274,8 @@ fn centre_in_hull_v3(
 ) -> u64 {
     use std::arch::x86_64::__m256i;
     let x2 = v3.avx2;
-    let (sx, sy) = (di << super::SUBPIXEL_BITS, dj << super::SUBPIXEL_BITS);
+    // (`BOX_CENTRES` holds the offsets in snapped units.)
+    let (sx, sy) = (di, dj);
     let splat = |a: i32| -> __m256i { bytemuck::cast([a; 8]) };
     let o = x2._mm256_add_epi32(o0, x2._mm256_mullo_epi32(dy, splat(sx)));
     let o = x2._mm256_add_epi32(o, x2._mm256_mullo_epi32(dx, splat(sy)));
@@ -284,12 +286,14 @@ fn centre_in_hull_v3(
     let neg = v3
         .avx
         ._mm256_movemask_ps(bytemuck::cast(x2._mm256_cmpgt_epi32(zero, o))) as u32;
-    let i = pos | neg << 6;
+    // (Lanes 6 and 7 are 0, so each mask is below 64; saying so spares a bounds check.)
+    let i = (pos & 63) | (neg & 63) << 6;
     IN_TRIANGLE[(i >> 6) as usize] >> (i & 63)
 }
 
 /// The centres `[di, dj]` of a `w`×`h` box of at most four, at index `(w − 1)·4 + h − 1`, by
-/// rows, padded to four with the first (a larger box's entry is four times the first).
+/// rows, padded to four with the first (a larger box's entry is four times the first), as
+/// offsets from the first in snapped units.
 #[cfg(target_arch = "x86_64")]
 const BOX_CENTRES: [[[i32; 2]; 4]; 16] = {
     let mut t = [[[0; 2]; 4]; 16];
@@ -299,7 +303,8 @@ const BOX_CENTRES: [[[i32; 2]; 4]; 16] = {
         while h <= 4 {
             let mut k = 0;
             while k < w * h && w * h <= 4 {
-                t[((w - 1) * 4 + h - 1) as usize][k as usize] = [k % w, k / w];
+                let s = 1 << super::SUBPIXEL_BITS;
+                t[((w - 1) * 4 + h - 1) as usize][k as usize] = [k % w * s, k / w * s];
                 k += 1;
             }
             h += 1;
@@ -311,7 +316,7 @@ const BOX_CENTRES: [[[i32; 2]; 4]; 16] = {
 
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-fn hull_misses_centres_v3(v3: pulp::x86::V3, q: &[[i64; 2]; 4], bx: [i64; 4]) -> bool {
+fn hull_misses_centres_v3(v3: pulp::x86::V3, q: &[[i32; 2]; 4], bx: [i64; 4]) -> bool {
     use std::arch::x86_64::__m256i;
     let (ia, ja, w, h) = (bx[0], bx[1], bx[2] - bx[0] + 1, bx[3] - bx[1] + 1);
     // No branch on the box: in the visibility order its shape and each centre's answer are
@@ -320,19 +325,21 @@ fn hull_misses_centres_v3(v3: pulp::x86::V3, q: &[[i64; 2]; 4], bx: [i64; 4]) ->
     // of at most four centres (a larger one's values, wrapped in i32, are discarded) and the
     // answer chosen by its size.
     let (empty, few) = (w < 1 || h < 1, w * h <= 4);
-    let (x, y) = centred(q, ia, ja);
-    let v: __m256i = bytemuck::cast([x, y]);
     let x2 = v3.avx2;
     let lanes = |a: [i32; 8]| -> __m256i { bytemuck::cast(a) };
-    // Lanes m < 6 for pair (i, j) of 01, 02, 03, 12, 13, 23: x_i, y_j, y_i, x_j (`v` is x0..x3,
-    // y0..y3). Lanes 6 and 7 compute x0·y0 − y0·x0 = 0, which sets neither mask.
+    // The points relative to the first centre, x0 y0 x1 y1 … (wrapping: exact where it
+    // matters, see `hull_misses_centres`).
+    let (px, py) = (pixel_centre(ia) as i32, pixel_centre(ja) as i32);
+    let v = x2._mm256_sub_epi32(bytemuck::cast(*q), lanes([px, py, px, py, px, py, px, py]));
+    // Lanes m < 6 for pair (i, j) of 01, 02, 03, 12, 13, 23: x_i, y_j, y_i, x_j (x_i in lane
+    // 2i, y_i in 2i + 1). Lanes 6 and 7 compute x0·y0 − y0·x0 = 0, which sets neither mask.
     let (xi, yj) = (
-        lanes([0, 0, 0, 1, 1, 2, 0, 0]),
-        lanes([5, 6, 7, 6, 7, 7, 4, 4]),
+        lanes([0, 0, 0, 2, 2, 4, 0, 0]),
+        lanes([3, 5, 7, 5, 7, 7, 1, 1]),
     );
     let (yi, xj) = (
-        lanes([4, 4, 4, 5, 5, 6, 4, 4]),
-        lanes([1, 2, 3, 2, 3, 3, 0, 0]),
+        lanes([1, 1, 1, 3, 3, 5, 1, 1]),
+        lanes([2, 4, 6, 4, 6, 6, 0, 0]),
     );
     let (axi, ayj) = (
         x2._mm256_permutevar8x32_epi32(v, xi),
@@ -464,7 +471,8 @@ mod tests {
                 let miss = hull_misses_centres(&q, bx);
                 #[cfg(target_arch = "x86_64")]
                 if let Some(v3) = pulp::x86::V3::try_new() {
-                    assert_eq!(hull_misses_centres_in(v3, &q, bx), miss, "{q:?} {bx:?}");
+                    let q32 = q.map(|p| p.map(|x| x as i32));
+                    assert_eq!(hull_misses_centres_in(v3, &q32, bx), miss, "{q:?} {bx:?}");
                 }
                 if bw < 1 || bh < 1 {
                     assert!(miss, "{q:?} {bx:?}");

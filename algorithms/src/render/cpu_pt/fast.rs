@@ -138,7 +138,7 @@ impl DrawTile<'_> {
                 // few-centre tets). (The tet's whole box must be small, not only its part in
                 // the tile: the test's integers are exact for so small a tet only.)
                 let few = (b[2] - b[0] + 1) * (b[3] - b[1] + 1) <= SMALL_CENTRES;
-                if few && hull_misses_centres_in(simd, &q, bx) {
+                if few && hull_misses_centres_in(simd, &r.q, bx) {
                     continue;
                 }
                 match sm.set_up_in(case, &q, bx, SMALL_CENTRES) {

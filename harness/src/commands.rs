@@ -371,10 +371,9 @@ fn render_cmd(args: &RenderArgs) -> Result<()> {
     })?;
     let mesh = load_mesh(&args.mesh.to_spec())?;
 
-    // Warm the thread pool so its allocations are not counted as the renderer's.
-    rayon::broadcast(|_| ());
     let t0 = Instant::now();
-    let (res, bytes, _peak) = alloc::measure(|| renderer.prepare(&mesh, &tf));
+    let (res, bytes, _peak) =
+        crate::measure::prepare_counted(&args.renderer, || renderer.prepare(&mesh, &tf));
     res?;
     let setup_ms = t0.elapsed().as_secs_f64() * 1e3;
     let camera = Camera::new(&mesh.bbox(), view, projection, w, h);
@@ -414,6 +413,11 @@ fn render_cmd(args: &RenderArgs) -> Result<()> {
             },
         ),
         ("gpu_bytes_per_tet", num(renderer.gpu_bytes() as f64 / tets)),
+        // The fixed cost kept apart from cpu_bytes_per_tet (CONVENTIONS §7).
+        (
+            "shared_fixed_bytes",
+            json!(crate::measure::shared_fixed_bytes()),
+        ),
         ("non_finite_pixels", json!(frame.image.non_finite_pixels())),
     ];
     for (k, v) in &frame.counters {

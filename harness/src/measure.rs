@@ -7,9 +7,11 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use algorithms::camera::Camera;
+use algorithms::gpu::Gpu;
 use algorithms::image::Image;
-use algorithms::render::{Frame, FrameTimes, Renderer};
-use algorithms::{Mesh, Result};
+use algorithms::optics::PsiTable;
+use algorithms::render::{self, Frame, FrameTimes, Renderer};
+use algorithms::{alloc, Mesh, Result};
 
 use crate::stats;
 
@@ -19,6 +21,37 @@ pub static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 /// Whether the user asked to stop.
 pub fn interrupted() -> bool {
     INTERRUPTED.load(Ordering::Relaxed)
+}
+
+/// Builds the process-wide state that the first `prepare` of a run would otherwise build, and
+/// be counted for: rayon's threads, the shared Ψ table and, for `renderer` when it needs one,
+/// the GPU context. They are fixed costs independent of the mesh, which CONVENTIONS §7 reports
+/// apart from `cpu_bytes_per_tet` ([`shared_fixed_bytes`]). Counted in whichever variant came
+/// first, they made its bytes per tet depend on the order of the variants (the Ψ table alone is
+/// 1 MiB: ~80 B a tet of the 13K-tet spx).
+pub fn warm_shared(renderer: &str) {
+    rayon::broadcast(|_| ());
+    let _ = PsiTable::shared();
+    if render::info(renderer).is_ok_and(|i| i.needs_gpu) {
+        // No GPU is the renderer's own `prepare` error to report.
+        let _ = Gpu::shared();
+    }
+}
+
+/// `prepare`, run under the counting allocator after [`warm_shared`]: its result, the heap
+/// bytes it left allocated and its peak above the start (see [`alloc::measure`]).
+pub fn prepare_counted<T>(renderer: &str, prepare: impl FnOnce() -> T) -> (T, isize, isize) {
+    warm_shared(renderer);
+    alloc::measure(prepare)
+}
+
+/// The heap bytes of the process-wide state [`warm_shared`] keeps out of every renderer's
+/// `cpu_bytes_per_tet`: the shared Ψ table. (The GPU context, made once a process, is kept
+/// out of the GPU renderers' bytes too; its host memory is wgpu's and the driver's, and is not
+/// reported.)
+pub fn shared_fixed_bytes() -> usize {
+    // (From the table's size, so that asking does not build it.)
+    PsiTable::DEFAULT_SIZE * PsiTable::DEFAULT_SIZE * std::mem::size_of::<f32>()
 }
 
 /// How many frames: thrown-away warm-up frames, then measured ones (at least one).

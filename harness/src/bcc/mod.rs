@@ -27,7 +27,7 @@ use algorithms::metrics::{compare, ImageError};
 use algorithms::optics::integrator;
 use algorithms::render::{self, Family, Frame, RenderOptions};
 use algorithms::tf::{TfPoint, TransferFunction};
-use algorithms::{alloc, Mesh, Result};
+use algorithms::{Mesh, Result};
 use datasets_gen::fields;
 use datasets_gen::grid::{bcc_lattice, cc_lattice, Lattice, Split};
 
@@ -208,10 +208,8 @@ fn prepare_pt(
         integrator: Some("partial".into()),
         ..Default::default()
     };
-    // A throwaway prepare first, so that process-wide tables built once (Ψ) are not counted.
-    render::make(renderer, &opts)?.prepare(mesh, t)?;
     let mut r = render::make(renderer, &opts)?;
-    let (prep, bytes, _) = alloc::measure(|| r.prepare(mesh, t));
+    let (prep, bytes, _) = crate::measure::prepare_counted(renderer, || r.prepare(mesh, t));
     prep?;
     let run = PtRun {
         times: Vec::new(),

@@ -61,7 +61,9 @@ impl Prepared {
         };
         let fresh = mesh.clone();
         let t0 = Instant::now();
-        let (prep, bytes, peak) = alloc::measure(|| isolated(|| renderer.prepare(&fresh, &exp.tf)));
+        let (prep, bytes, peak) = measure::prepare_counted(&var.renderer, || {
+            isolated(|| renderer.prepare(&fresh, &exp.tf))
+        });
         let setup_ms = t0.elapsed().as_secs_f64() * 1e3;
         let tets = mesh.num_tets() as f64;
         let per_tet = |b: isize| {

@@ -465,7 +465,7 @@ fn write_order(p: &Path, order: &[OrderRow]) -> Result<()> {
 fn write_meta(exp: &Experiment, opts: &RunOptions) -> Result<()> {
     let p = opts.out.join("meta.txt");
     let text = format!(
-        "experiment: {}\ndate: {}\nmachine: {}\nthreads: {}\ntf: {}\nrepeats: {}\nwarmup: {}\ninterleave: {}\nvariants: {}\n",
+        "experiment: {}\ndate: {}\nmachine: {}\nthreads: {}\ntf: {}\nrepeats: {}\nwarmup: {}\ninterleave: {}\nvariants: {}\nshared_fixed_bytes: {} (the shared Ψ table; not in cpu_bytes_per_tet)\n",
         exp.name,
         crate::sysinfo::now_utc(),
         crate::sysinfo::machine(),
@@ -479,6 +479,7 @@ fn write_meta(exp: &Experiment, opts: &RunOptions) -> Result<()> {
             .map(|v| v.label.as_str())
             .collect::<Vec<_>>()
             .join(", "),
+        crate::measure::shared_fixed_bytes(),
     );
     std::fs::write(&p, text).map_err(|e| Error::io(&p, e))
 }

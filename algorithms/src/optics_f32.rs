@@ -251,7 +251,7 @@ impl FastIntegrator {
     /// present, chosen at run time by `pulp`'s dispatch); `preint` runs the scalar definition.
     /// (The compiler keeps the lanes scalar because of the table look-ups; an explicit AVX2
     /// kernel with gathers gave the same bits but was ~8 % slower per frame on the AMD EPYC
-    /// this was measured on — see docs/performance.md.)
+    /// this was measured on — see docs/performance-history.md.)
     #[inline]
     pub fn shade_batch(&self, b: &mut ShadeBatch) {
         match self {

@@ -446,6 +446,11 @@ pub struct TableError {
 impl PsiTable {
     pub const DEFAULT_SIZE: usize = 512;
 
+    /// The heap bytes of an `n × n` table (`n ≥ 2`), without building one.
+    pub const fn heap_bytes(n: usize) -> usize {
+        n * n * std::mem::size_of::<f32>()
+    }
+
     /// Builds an `n × n` table (`n` is raised to at least 2).
     pub fn new(n: usize) -> PsiTable {
         let n = n.max(2);
@@ -1718,6 +1723,10 @@ mod tests {
         let t = PsiTable::shared();
         assert_eq!(t.size(), 512);
         assert_eq!(t.data().len(), 512 * 512);
+        assert_eq!(
+            std::mem::size_of_val(t.data()),
+            PsiTable::heap_bytes(PsiTable::DEFAULT_SIZE)
+        );
         assert_eq!(t.data()[0], 1.0);
         // Nodes hold psi() (to f32).
         let n = t.size();

@@ -29,7 +29,7 @@ pub fn interrupted() -> bool {
 /// apart from `cpu_bytes_per_tet` ([`shared_fixed_bytes`]). Counted in whichever variant came
 /// first, they made its bytes per tet depend on the order of the variants (the Ψ table alone is
 /// 1 MiB: ~80 B a tet of the 13K-tet spx).
-pub fn warm_shared(renderer: &str) {
+fn warm_shared(renderer: &str) {
     rayon::broadcast(|_| ());
     let _ = PsiTable::shared();
     if render::info(renderer).is_ok_and(|i| i.needs_gpu) {
@@ -38,20 +38,20 @@ pub fn warm_shared(renderer: &str) {
     }
 }
 
-/// `prepare`, run under the counting allocator after [`warm_shared`]: its result, the heap
+/// `prepare`, run under the counting allocator after `warm_shared`: its result, the heap
 /// bytes it left allocated and its peak above the start (see [`alloc::measure`]).
 pub fn prepare_counted<T>(renderer: &str, prepare: impl FnOnce() -> T) -> (T, isize, isize) {
     warm_shared(renderer);
     alloc::measure(prepare)
 }
 
-/// The heap bytes of the process-wide state [`warm_shared`] keeps out of every renderer's
+/// The heap bytes of the process-wide state `warm_shared` keeps out of every renderer's
 /// `cpu_bytes_per_tet`: the shared Ψ table. (The GPU context, made once a process, is kept
 /// out of the GPU renderers' bytes too; its host memory is wgpu's and the driver's, and is not
 /// reported.)
 pub fn shared_fixed_bytes() -> usize {
-    // (From the table's size, so that asking does not build it.)
-    PsiTable::DEFAULT_SIZE * PsiTable::DEFAULT_SIZE * std::mem::size_of::<f32>()
+    // (Asking does not build the table.)
+    PsiTable::heap_bytes(PsiTable::DEFAULT_SIZE)
 }
 
 /// How many frames: thrown-away warm-up frames, then measured ones (at least one).

@@ -16,8 +16,33 @@ use crate::meshes::{load_mesh, parse_size};
 use crate::rows;
 use crate::table;
 
-/// Rows of the last bench or merge that failed; `main` turns a nonzero count into exit 3.
-pub static FAILED_ROWS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+/// How a command that finished ended: cleanly, or with measurements that failed (rows with NaN
+/// times and their message; the run went on without them). `main` maps it to the exit status.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Finished {
+    Clean,
+    /// This many rows failed.
+    FailedRows(usize),
+}
+
+impl Finished {
+    /// `FailedRows` when any of `n` rows failed.
+    pub fn with_failed(n: usize) -> Finished {
+        if n == 0 {
+            Finished::Clean
+        } else {
+            Finished::FailedRows(n)
+        }
+    }
+
+    /// The process exit status: 0, or 3 when rows failed.
+    pub fn exit_code(self) -> u8 {
+        match self {
+            Finished::Clean => 0,
+            Finished::FailedRows(_) => 3,
+        }
+    }
+}
 
 /// How `tetbench bench` runs, from its flags.
 pub struct BenchFlags<'a> {
@@ -30,7 +55,7 @@ pub struct BenchFlags<'a> {
 }
 
 /// `tetbench bench`: validate everything first, then run, then plot.
-fn bench_cmd(f: &BenchFlags) -> Result<()> {
+fn bench_cmd(f: &BenchFlags) -> Result<Finished> {
     let shard = match f.shard {
         Some(s) => crate::sweep::Shard::parse(s)?,
         None => crate::sweep::Shard::ALL,
@@ -66,12 +91,11 @@ fn bench_cmd(f: &BenchFlags) -> Result<()> {
             println!("plot: {}", p.display());
         }
     }
-    report_failed(&o.rows);
-    Ok(())
+    Ok(report_failed(&o.rows))
 }
 
-/// Says how many rows failed (and sets [`FAILED_ROWS`] for the exit status).
-fn report_failed(rows: &[rows::Row]) {
+/// Says how many rows failed, and how the command ends.
+fn report_failed(rows: &[rows::Row]) -> Finished {
     let failed: Vec<&rows::Row> = rows.iter().filter(|r| crate::sweep::failed(r)).collect();
     if let Some(first) = failed.first() {
         eprintln!(
@@ -83,11 +107,15 @@ fn report_failed(rows: &[rows::Row]) {
             first.note
         );
     }
-    FAILED_ROWS.store(failed.len(), std::sync::atomic::Ordering::SeqCst);
+    Finished::with_failed(failed.len())
 }
 
 /// `tetbench merge`: check and merge shard directories, then plot.
-fn merge_cmd(out: &std::path::Path, shards: &[std::path::PathBuf], plots: bool) -> Result<()> {
+fn merge_cmd(
+    out: &std::path::Path,
+    shards: &[std::path::PathBuf],
+    plots: bool,
+) -> Result<Finished> {
     let rows = crate::merge::merge(out, shards)?;
     println!("rows: {}", rows.len());
     println!("results: {}", out.join("results.csv").display());
@@ -96,14 +124,16 @@ fn merge_cmd(out: &std::path::Path, shards: &[std::path::PathBuf], plots: bool) 
             println!("plot: {}", p.display());
         }
     }
-    report_failed(&rows);
-    Ok(())
+    Ok(report_failed(&rows))
 }
 
-pub fn run(cli: Cli) -> Result<()> {
+/// Runs one subcommand. `Err` is a run that stopped (bad input, an I/O error, Ctrl-C); a run
+/// that finished says whether some of its measurements failed.
+pub fn run(cli: Cli) -> Result<Finished> {
+    let done = |r: Result<()>| r.map(|()| Finished::Clean);
     match cli.command {
-        Command::Info { mesh, json } => info(&mesh, json),
-        Command::Render(args) => render_cmd(&args),
+        Command::Info { mesh, json } => done(info(&mesh, json)),
+        Command::Render(args) => done(render_cmd(&args)),
         Command::Compare {
             test,
             reference,
@@ -134,11 +164,11 @@ pub fn run(cli: Cli) -> Result<()> {
                 ))
             })?;
             print_pairs(e.fields().iter().map(|(k, v)| (*k, json!(v))), json);
-            Ok(())
+            Ok(Finished::Clean)
         }
         Command::List => {
             list();
-            Ok(())
+            Ok(Finished::Clean)
         }
         Command::Bench {
             config,
@@ -169,7 +199,7 @@ pub fn run(cli: Cli) -> Result<()> {
             slurm,
         } => {
             if let Some(n) = slurm {
-                return slurm_commands(quick, &out, &only, n);
+                return done(slurm_commands(quick, &out, &only, n));
             }
             let sweep = match (shard, merge.is_empty()) {
                 (Some(s), _) => crate::papers::Sweep::Shard(crate::sweep::Shard::parse(&s)?),
@@ -177,15 +207,14 @@ pub fn run(cli: Cli) -> Result<()> {
                 (None, true) => crate::papers::Sweep::Whole,
             };
             let failed = crate::reproduce::run(quick, &out, &only, sweep)?;
-            FAILED_ROWS.store(failed, std::sync::atomic::Ordering::SeqCst);
-            Ok(())
+            Ok(Finished::with_failed(failed))
         }
         Command::Plot { dir } if dir.join("raw").is_dir() => {
             // A `reproduce` directory: every table's plots from its raw rows.
             for p in crate::papers::replot_all(&dir)? {
                 println!("plot: {}", p.display());
             }
-            Ok(())
+            Ok(Finished::Clean)
         }
         Command::Plot { dir } => {
             let csv = dir.join("results.csv");
@@ -200,10 +229,10 @@ pub fn run(cli: Cli) -> Result<()> {
             for p in crate::plots::all(&rows, &pairs, &dir)? {
                 println!("plot: {}", p.display());
             }
-            Ok(())
+            Ok(Finished::Clean)
         }
-        Command::Jbu(args) if args.replot => crate::jbu::replot(&args.out),
-        Command::Jbu(args) => crate::jbu::run(&args.to_plan(), &args.out),
+        Command::Jbu(args) if args.replot => done(crate::jbu::replot(&args.out)),
+        Command::Jbu(args) => done(crate::jbu::run(&args.to_plan(), &args.out)),
     }
 }
 

@@ -29,15 +29,12 @@ fn main() -> ExitCode {
         );
     });
     match tetbench::commands::run(cli) {
-        // Some rows failed (each is in results.csv with its message): the run went on, but
-        // says so.
-        Ok(()) if tetbench::commands::FAILED_ROWS.load(std::sync::atomic::Ordering::SeqCst) > 0 => {
-            ExitCode::from(3)
-        }
-        Ok(()) => ExitCode::SUCCESS,
+        // 0, or 3 when some rows failed (each is in results.csv with its message): the run
+        // went on, but says so.
+        Ok(finished) => ExitCode::from(finished.exit_code()),
         Err(e) => {
             eprintln!("tetbench: {e}");
-            if tetbench::measure::INTERRUPTED.load(std::sync::atomic::Ordering::SeqCst) {
+            if tetbench::measure::interrupted() {
                 return ExitCode::from(130);
             }
             ExitCode::from(if e.is_user_error() { 2 } else { 1 })

@@ -15,7 +15,9 @@ use algorithms::{alloc, Mesh, Result};
 
 use crate::stats;
 
-/// Set by the Ctrl-C handler; measuring stops at the next frame boundary.
+/// Set by the Ctrl-C handler that `main` installs; measuring stops at the next frame boundary.
+/// The harness's one piece of process-wide state: a signal handler can reach nothing else. Read
+/// it through [`interrupted`].
 pub static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 
 /// Whether the user asked to stop.

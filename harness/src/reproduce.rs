@@ -127,7 +127,7 @@ pub fn run(quick: bool, out: &Path, only: &[String], sweep: crate::papers::Sweep
     let total = started.elapsed().as_secs_f64();
     write_readme(out, quick, only, &machine, &date, total)?;
     println!("wall_time_s: {total:.1}");
-    let failed = ctx.failed.load(std::sync::atomic::Ordering::SeqCst);
+    let failed = ctx.failed.get();
     if failed > 0 {
         eprintln!(
             "tetbench: {failed} measurement(s) failed; the tables show them as failed and list their messages"

@@ -61,7 +61,7 @@ pub struct Ctx {
     /// Whole, one shard of each experiment table, or the merge of shard directories.
     pub sweep: Sweep,
     /// Failed measurements in the tables run so far (`reproduce` exits 3 when there are any).
-    pub failed: std::sync::atomic::AtomicUsize,
+    pub failed: std::cell::Cell<usize>,
 }
 
 /// How `reproduce` runs the experiment tables.
@@ -81,8 +81,7 @@ impl Ctx {
     /// Adds the failed rows among `rows` to [`Ctx::failed`].
     pub fn count_failed(&self, rows: &[crate::rows::Row]) {
         let n = rows.iter().filter(|r| crate::sweep::failed(r)).count();
-        self.failed
-            .fetch_add(n, std::sync::atomic::Ordering::SeqCst);
+        self.failed.set(self.failed.get() + n);
     }
 
     /// A table that is not an experiment skips a shard run (the merge runs it).

@@ -102,12 +102,16 @@ and together hold every row exactly once; anything else is refused, naming the s
         #[arg(long)]
         no_plots: bool,
     },
-    /// Regenerate the papers' tables (PTINT Table 1, 2, Fig. 8; HAPT Tables 1-4) and their plots.
-    #[command(after_help = "Example: tetbench reproduce --quick --out results-quick
+    /// Regenerate the papers' tables (PTINT Table 1, 2, Fig. 8; HAPT Tables 1-4; JBU Fig. 3-5;
+    /// BCC §3 and §4) and their plots.
+    #[command(after_help = "Examples: tetbench reproduce --quick --out results-quick
+          tetbench reproduce --only jbu --out results
 
 Each table is written as DIR/<table>.csv and DIR/<table>.md beside the paper's figures, with
 its plots; raw measurements under DIR/raw/<table>/. Tables whose renderers are not registered
-yet are skipped with a note in DIR/README.md.")]
+yet are skipped with a note in DIR/README.md. The joint bilateral upsampling study is the
+table `jbu` (`--only jbu`; there is no separate `tetbench jbu` command); BCC's are `bcc_pt`
+and `bcc_reconstruction`.")]
     Reproduce {
         /// Smaller meshes, fewer views, smaller images (minutes on 2 cores).
         #[arg(long)]
@@ -125,6 +129,10 @@ yet are skipped with a note in DIR/README.md.")]
         /// Merge these shard output directories (of `reproduce --shard`) and write the tables.
         #[arg(long, value_name = "SHARD_DIR", num_args = 1..)]
         merge: Vec<std::path::PathBuf>,
+        /// Keep the raw rows an interrupted run left under DIR/raw/<table>/ and measure only the
+        /// missing ones (tables with image pairs are measured again in full).
+        #[arg(long, conflicts_with = "merge")]
+        resume: bool,
         /// Print the Slurm commands that run this reproduce as an N-task job array plus a
         /// merge job (submit them, or copy them into your own scripts).
         #[arg(long, value_name = "N")]
@@ -137,9 +145,6 @@ yet are skipped with a note in DIR/README.md.")]
         /// A directory written by `tetbench bench` or `tetbench reproduce`.
         dir: PathBuf,
     },
-    /// Joint bilateral upsampling experiment: time and RMSE per resolution (results/jbu.csv).
-    #[command(after_help = "Example: tetbench jbu --quick --out results")]
-    Jbu(JbuArgs),
 }
 
 /// How a mesh is found and read.
@@ -174,52 +179,8 @@ impl MeshArgs {
             split: self.split,
             one_based: self.one_based,
             seed: self.seed,
+            lattice: None,
         }
-    }
-}
-
-#[derive(Args, Debug)]
-pub struct JbuArgs {
-    /// 512² full size and two small datasets (a smoke run).
-    #[arg(long)]
-    pub quick: bool,
-    /// Output folder for jbu.csv and the plots.
-    #[arg(long, default_value = "results")]
-    pub out: PathBuf,
-    /// Datasets (comma-separated) instead of the default set.
-    #[arg(long, value_delimiter = ',')]
-    pub datasets: Option<Vec<String>>,
-    /// Renderers (comma-separated) instead of every registered one.
-    #[arg(long, value_delimiter = ',')]
-    pub renderers: Option<Vec<String>>,
-    /// Frames per timing of the full-size image and the largest low size (median); smaller
-    /// low sizes take at least 3.
-    #[arg(long, default_value_t = 1)]
-    pub repeats: usize,
-    /// Only the first N of the 14 cube views (0–7 corners, 8–13 faces).
-    #[arg(long)]
-    pub views: Option<usize>,
-    /// Redraw the plots and jbu.md from OUT/jbu.csv (e.g. rows of several runs put together)
-    /// instead of running.
-    #[arg(long)]
-    pub replot: bool,
-}
-
-impl JbuArgs {
-    /// The experiment's plan: the defaults of `--quick` or a full run, with the flags applied.
-    pub fn to_plan(&self) -> crate::jbu::Plan {
-        let mut plan = crate::jbu::Plan::new(self.quick);
-        if let Some(d) = &self.datasets {
-            plan.datasets = d.clone();
-        }
-        if let Some(r) = &self.renderers {
-            plan.renderers = r.clone();
-        }
-        plan.repeats = self.repeats.max(1);
-        if let Some(n) = self.views {
-            plan.views.truncate(n.max(1));
-        }
-        plan
     }
 }
 

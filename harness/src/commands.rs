@@ -196,6 +196,7 @@ pub fn run(cli: Cli) -> Result<Finished> {
             only,
             shard,
             merge,
+            resume,
             slurm,
         } => {
             if let Some(n) = slurm {
@@ -206,7 +207,7 @@ pub fn run(cli: Cli) -> Result<Finished> {
                 (None, false) => crate::papers::Sweep::Merge(merge),
                 (None, true) => crate::papers::Sweep::Whole,
             };
-            let failed = crate::reproduce::run(quick, &out, &only, sweep)?;
+            let failed = crate::reproduce::run(quick, &out, &only, sweep, resume)?;
             Ok(Finished::with_failed(failed))
         }
         Command::Plot { dir } if dir.join("raw").is_dir() => {
@@ -231,8 +232,6 @@ pub fn run(cli: Cli) -> Result<Finished> {
             }
             Ok(Finished::Clean)
         }
-        Command::Jbu(args) if args.replot => done(crate::jbu::replot(&args.out)),
-        Command::Jbu(args) => done(crate::jbu::run(&args.to_plan(), &args.out)),
     }
 }
 

@@ -3,7 +3,7 @@
 //! - `stats`, `table` (numbers and paper tables), `rows` (measured rows and their CSV),
 //!   `meshes` (where meshes come from), `progress`, `sysinfo`;
 //! - `measure` (the one frame-timing loop), `plots`, `experiment` (experiment files);
-//! - `bench` (running an experiment), `jbu`, `bcc` (their own experiments);
+//! - `bench` (running an experiment), `bcc` (its own experiments);
 //! - `papers` (the papers' tables, one file per paper), `reproduce` (the loop over them); `cli` (clap, turned into the plain types above) and
 //!   `commands` (the subcommands), which nothing else uses.
 
@@ -12,7 +12,6 @@ pub mod bench;
 pub mod cli;
 pub mod commands;
 pub mod experiment;
-pub mod jbu;
 pub mod measure;
 pub mod merge;
 pub mod meshes;

@@ -1,11 +1,16 @@
 //! Where meshes come from: a file, a NASA short name (`blunt`, `post`, `comb`) or a
 //! `datasets-gen` name with an optional size (`spx`, `fighter:200000`). The CLI and experiment
 //! files turn their arguments into a plain [`MeshSpec`]; [`resolve`] says which kind of source a
-//! name is (checked before any work), and [`load_mesh`] reads or generates it.
+//! name is (checked before any work), and [`load_mesh`] reads or generates it. Experiments may
+//! also ask for a lattice over [-1, 1]³ sampling a known analytic field ([`LatticeSpec`]), whose
+//! exact image is then known too.
 
 use std::path::{Path, PathBuf};
 
+use algorithms::glam::DVec3;
 use algorithms::io::{self, LoadOptions, Split};
+use algorithms::lattice::LatticeKind;
+use algorithms::mesh::Aabb;
 use algorithms::{Error, Mesh, Result};
 
 /// The seed of generated meshes when none is given (the same as `datasets-gen --seed`).
@@ -26,6 +31,8 @@ pub struct MeshSpec {
     pub one_based: bool,
     /// Seed of `datasets-gen` meshes.
     pub seed: u64,
+    /// Built as this lattice instead (`mesh` is then its kind's name).
+    pub lattice: Option<LatticeSpec>,
 }
 
 impl MeshSpec {
@@ -38,7 +45,132 @@ impl MeshSpec {
             split: None,
             one_based: false,
             seed: DEFAULT_SEED,
+            lattice: None,
         }
+    }
+}
+
+/// An analytic field over [-1, 1]³ with values in [0, 1]: what a lattice dataset samples, and
+/// what the `analytic` yardstick integrates along each ray.
+#[derive(Debug)]
+pub struct AnalyticField {
+    pub name: &'static str,
+    pub description: &'static str,
+    pub f: fn(DVec3) -> f64,
+}
+
+fn shell(p: DVec3) -> f64 {
+    datasets_gen::fields::spherical_shell(p, DVec3::ZERO, 0.6, 0.15)
+}
+
+/// The analytic fields lattice datasets can sample (the first is the default).
+pub static FIELDS: [AnalyticField; 2] = [
+    AnalyticField {
+        name: "marschner-lobb",
+        description: "Marschner-Lobb, f_M = 6, alpha = 0.25",
+        f: datasets_gen::fields::marschner_lobb,
+    },
+    AnalyticField {
+        name: "shell",
+        description: "spherical shell, radius 0.6, width 0.15",
+        f: shell,
+    },
+];
+
+/// The analytic field called `name`; one line listing them otherwise.
+pub fn field(name: &str) -> Result<&'static AnalyticField> {
+    FIELDS.iter().find(|f| f.name == name).ok_or_else(|| {
+        let names: Vec<&str> = FIELDS.iter().map(|f| f.name).collect();
+        Error::Input(format!(
+            "field '{name}': no such analytic field (fields: {}){}",
+            names.join(", "),
+            algorithms::plugin::did_you_mean(name, &names)
+        ))
+    })
+}
+
+/// A lattice over [-1, 1]³ sampling an analytic field: `cc5` or `cc6` with `cells` cells per
+/// axis (spacing h = 2/cells), or `bcc` with the same information (primary spacing nearest
+/// √2·h: `round(cells/√2)` cells per axis, BCC paper §4). Its ground truth is the field itself,
+/// integrated along each ray every `truth_step` (world units).
+#[derive(Clone, Copy, Debug)]
+pub struct LatticeSpec {
+    pub kind: LatticeKind,
+    pub cells: usize,
+    pub field: &'static AnalyticField,
+    pub truth_step: f64,
+}
+
+impl LatticeSpec {
+    /// `kind` is `cc5`, `cc6` or `bcc`.
+    pub fn new(
+        kind: &str,
+        cells: usize,
+        field: &'static AnalyticField,
+        truth_step: f64,
+    ) -> Result<LatticeSpec> {
+        let kind = match kind {
+            "cc5" => LatticeKind::Cc5,
+            "cc6" => LatticeKind::Cc6,
+            "bcc" => LatticeKind::Bcc,
+            other => {
+                return Err(Error::Input(format!(
+                    "'{other}': `cells` builds the lattices cc5, cc6 and bcc only"
+                )))
+            }
+        };
+        Ok(LatticeSpec {
+            kind,
+            cells,
+            field,
+            truth_step,
+        })
+    }
+
+    /// Primary points per axis of the `bcc` lattice: `round(cells/√2) + 1`.
+    pub fn bcc_points(&self) -> usize {
+        (self.cells as f64 / std::f64::consts::SQRT_2)
+            .round()
+            .max(1.0) as usize
+            + 1
+    }
+
+    /// The lattice's (primary) box, [-1, 1]³: where a regular-volume ray caster samples it.
+    pub fn lattice_box() -> Aabb {
+        Aabb {
+            min: DVec3::splat(-1.0),
+            max: DVec3::ONE,
+        }
+    }
+
+    /// Builds the mesh: the lattice's tets, the field sampled at its vertices (field `f`) and
+    /// the lattice description that lattice-aware sorts and renderers read.
+    pub fn build(&self) -> Result<Mesh> {
+        use datasets_gen::grid::{bcc_lattice, cc_lattice, Split as Cells};
+        let o = DVec3::splat(-1.0);
+        let (name, positions, tets, lattice) = match self.kind {
+            LatticeKind::Cc5 | LatticeKind::Cc6 => {
+                let (name, split) = if self.kind == LatticeKind::Cc5 {
+                    ("cc5", Cells::Five)
+                } else {
+                    ("cc6", Cells::Six)
+                };
+                let h = DVec3::splat(2.0 / self.cells as f64);
+                let (b, l) = cc_lattice([self.cells; 3], split, o, h);
+                (name, b.positions, b.tets, l)
+            }
+            LatticeKind::Bcc => {
+                let n = self.bcc_points();
+                let h = DVec3::splat(2.0 / (n - 1) as f64);
+                let (p, t, l) = bcc_lattice([n; 3], o, h);
+                ("bcc", p, t, l)
+            }
+        };
+        let s = datasets_gen::fields::sample(&positions, self.field.f);
+        let mut m = Mesh::with_scalars(name, positions, tets, "f", s)?;
+        m.field_data
+            .insert(datasets_gen::LATTICE_KEY.into(), lattice.to_field_data());
+        Ok(m)
     }
 }
 
@@ -118,6 +250,9 @@ pub fn load_mesh(spec: &MeshSpec) -> Result<Mesh> {
         q_file: spec.q_file.clone(),
         one_based: spec.one_based,
     };
+    if let Some(l) = &spec.lattice {
+        return l.build();
+    }
     match resolve(&spec.mesh, Path::new("."))? {
         Source::File(p) => io::load_path(&p, &opts),
         Source::Nasa(n) => io::load(n, &opts),

@@ -108,13 +108,20 @@ fn run_one(t: &dyn PaperTable, ctx: &Ctx, machine: &str, date: &str) -> Result<S
 /// Runs every table (or those in `only`), writing tables, plots and `DIR/README.md`.
 /// Returns how many measurements failed (each is a row with its message in its table's raw
 /// `results.csv`, and shown as failed in the table).
-pub fn run(quick: bool, out: &Path, only: &[String], sweep: crate::papers::Sweep) -> Result<usize> {
+pub fn run(
+    quick: bool,
+    out: &Path,
+    only: &[String],
+    sweep: crate::papers::Sweep,
+    resume: bool,
+) -> Result<usize> {
     let tables = select(only)?;
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
     let ctx = Ctx {
         quick,
         out: out.to_path_buf(),
         sweep,
+        resume,
         failed: Default::default(),
     };
     let machine = crate::sysinfo::machine();

@@ -48,7 +48,39 @@ pub struct Row {
     pub max_err_pct: Option<f64>,
     pub avg_err_pct: Option<f64>,
     pub non_finite_pixels: usize,
+    /// What the error columns are measured against: `reference` (the exact renderer), another
+    /// renderer's name, `analytic` or `analytic-box` (see `experiment::Yardstick`); empty
+    /// without errors.
+    #[serde(default)]
+    pub reference: String,
+    /// The renderer's counters of the last measured frame, `name=value;...` (e.g. a `jbu:`
+    /// wrapper's `low_ms`, `depth_ms`, `filter_ms`; `tets_skipped`).
+    #[serde(default)]
+    pub counters: String,
+    /// The last measured image's content hash: equal hashes mean bit-identical images.
+    #[serde(default)]
+    pub image_hash: String,
     pub note: String,
+}
+
+impl Row {
+    /// The counter `name` of [`Row::counters`], if the renderer reported it.
+    pub fn counter(&self, name: &str) -> Option<f64> {
+        self.counters
+            .split(';')
+            .filter_map(|kv| kv.split_once('='))
+            .find(|(k, _)| *k == name)
+            .and_then(|(_, v)| v.parse().ok())
+    }
+}
+
+/// Counters as the `counters` column writes them.
+pub fn format_counters(counters: &[(&str, f64)]) -> String {
+    counters
+        .iter()
+        .map(|(k, v)| format!("{k}={v}"))
+        .collect::<Vec<_>>()
+        .join(";")
 }
 
 /// One image-against-image comparison of two variants (`DIR/pairs.csv`).

@@ -62,7 +62,7 @@ impl Prepared {
         let fresh = mesh.clone();
         let t0 = Instant::now();
         let (prep, bytes, peak) = measure::prepare_counted(&var.renderer, || {
-            isolated(|| renderer.prepare(&fresh, &exp.tf))
+            isolated(|| renderer.prepare(&fresh, &var.tf))
         });
         let setup_ms = t0.elapsed().as_secs_f64() * 1e3;
         let tets = mesh.num_tets() as f64;
@@ -81,7 +81,12 @@ impl Prepared {
             sort: var.sort.clone(),
             integrator: var.integrator.clone(),
             variant: var.label.clone(),
-            tf: exp.tf_name.clone(),
+            tf: var.tf_name.clone(),
+            reference: if exp.error {
+                var.yardstick.label()
+            } else {
+                String::new()
+            },
             repeats: exp.repeats,
             warmup: exp.warmup,
             threads: rayon::current_num_threads(),
@@ -209,13 +214,17 @@ fn frame(p: &mut Prepared, cam: &Camera, panic: bool) -> Result<algorithms::rend
     })
 }
 
+/// The yardstick image a measurement's error is taken against (see `bench::yardsticks`): its
+/// file, or why there is none.
+pub type RefImage<'a> = std::result::Result<&'a Path, &'a str>;
+
 /// Measures one cell: the row (a failed frame is a row with NaN times and the error as its
 /// note) and, when the frames ran, the last image. With `reference`, the error against it.
 pub fn measure_cell(
     exp: &Experiment,
     p: &mut Prepared,
     cell: &Cell,
-    reference: Option<&Path>,
+    reference: Option<RefImage>,
 ) -> Result<(Row, Option<Image>)> {
     let row = cell_row(p, cell);
     let result = match &p.failed {
@@ -245,12 +254,13 @@ pub fn measure_cell(
 /// `interleave`): warm-up rounds, then measured rounds, each rendering every variant once in
 /// turn ([`measure::measure_rounds`]). A variant whose `prepare` or frame fails gets a failed
 /// row; the others are measured all the same. `turn(variant, t)` is called before each frame,
-/// in the order they run. The rows come back in the order of `ps`.
+/// in the order they run. The rows come back in the order of `ps`, each with the error against
+/// its own yardstick in `references` (parallel to `ps`).
 pub fn measure_cell_interleaved(
     exp: &Experiment,
     ps: &mut [&mut Prepared],
     cell: &Cell,
-    reference: Option<&Path>,
+    references: &[Option<RefImage>],
     mut turn: impl FnMut(&str, measure::Turn),
 ) -> Result<Vec<(Row, Option<Image>)>> {
     let live: Vec<usize> = (0..ps.len()).filter(|&i| ps[i].failed.is_none()).collect();
@@ -269,7 +279,8 @@ pub fn measure_cell_interleaved(
     )
     .into_iter();
     let mut out = Vec::with_capacity(ps.len());
-    for p in ps.iter_mut() {
+    for (i, p) in ps.iter_mut().enumerate() {
+        let reference = references.get(i).copied().flatten();
         let row = cell_row(p, cell);
         let result = match &p.failed {
             Some(e) => Err(Error::Input(e.clone())),
@@ -287,7 +298,7 @@ fn finish_row(
     mut row: Row,
     result: Result<measure::Measured>,
     p: &Prepared,
-    reference: Option<&Path>,
+    reference: Option<RefImage>,
 ) -> Result<(Row, Option<Image>)> {
     let m = match result {
         Ok(m) => m,
@@ -318,13 +329,29 @@ fn finish_row(
     row.fps = 1e3 / t.total_ms.max(1e-9);
     row.tets_per_s = row.tets as f64 / (t.total_ms.max(1e-9) * 1e-3);
     row.non_finite_pixels = m.image.non_finite_pixels();
+    row.image_hash = super::image_hash(&m.image);
+    row.counters = crate::rows::format_counters(&m.counters);
     // An external renderer's bytes are its helper process's peak RSS, known after the frames.
     if let Some(b) = p.renderer.external_bytes() {
         row.cpu_bytes_per_tet = b as f64 / row.tets.max(1) as f64;
         row.cpu_peak_bytes_per_tet = row.cpu_bytes_per_tet;
     }
-    if let Some(rp) = reference {
-        match metrics::compare(&m.image, &Image::read(rp)?) {
+    let yardstick = match reference {
+        None => None,
+        Some(Ok(rp)) => match Image::read(rp) {
+            Ok(img) => Some(img),
+            Err(e) => {
+                row.note = format!("reference: {e}");
+                None
+            }
+        },
+        Some(Err(why)) => {
+            row.note = format!("reference: {why}");
+            None
+        }
+    };
+    if let Some(ri) = &yardstick {
+        match metrics::compare(&m.image, ri) {
             Ok(e) => {
                 row.rmse = Some(e.rmse);
                 row.psnr = Some(e.psnr);

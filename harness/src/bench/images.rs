@@ -1,6 +1,5 @@
-//! Images of a sweep: the reference-image cache (content hash of mesh, transfer function,
-//! camera and reference version), saved images under `DIR/images/`, and the image-against-image
-//! comparison of variant pairs.
+//! Images of a sweep: content hashes of meshes and images, saved images under `DIR/images/`,
+//! and the image-against-image comparison of variant pairs.
 
 use super::*;
 
@@ -102,45 +101,16 @@ pub fn mesh_hash(mesh: &Mesh) -> blake3::Hash {
     h.finalize()
 }
 
-fn tf_bytes(h: &mut blake3::Hasher, tf: &TransferFunction) {
-    h.update(tf.name.as_bytes());
-    match tf.range {
-        Some([a, b]) => {
-            h.update(&[1]);
-            h.update(&a.to_le_bytes());
-            h.update(&b.to_le_bytes());
-        }
-        None => {
-            h.update(&[0]);
-        }
+/// A short content hash of an image's f32 pixels (the `image_hash` column): equal hashes mean
+/// bit-identical images.
+pub fn image_hash(img: &Image) -> String {
+    let mut bytes = Vec::with_capacity(8 + 16 * img.pixels.len());
+    bytes.extend(img.width.to_le_bytes());
+    bytes.extend(img.height.to_le_bytes());
+    for c in img.pixels.iter().flatten() {
+        bytes.extend(c.to_le_bytes());
     }
-    for p in &tf.points {
-        h.update(&p.s.to_le_bytes());
-        for c in p.rgb {
-            h.update(&c.to_le_bytes());
-        }
-        h.update(&p.tau.to_le_bytes());
-    }
-}
-
-/// The cache file of the reference image for (mesh, cell, TF).
-pub(super) fn ref_path(
-    opts: &RunOptions,
-    mesh: &blake3::Hash,
-    exp: &Experiment,
-    cell: &Cell,
-) -> PathBuf {
-    let mut x = blake3::Hasher::new();
-    x.update(REFERENCE_VERSION.as_bytes());
-    x.update(mesh.as_bytes());
-    x.update(cell.projection.name().as_bytes());
-    x.update(&cell.size.0.to_le_bytes());
-    x.update(&cell.size.1.to_le_bytes());
-    x.update(&cell.view.view.azimuth.to_le_bytes());
-    x.update(&cell.view.view.elevation.to_le_bytes());
-    tf_bytes(&mut x, &exp.tf);
-    let hex = x.finalize().to_hex();
-    opts.cache_dir.join(format!("ref-{}.exr", &hex[..32]))
+    blake3::hash(&bytes).to_hex()[..16].to_string()
 }
 
 pub(super) fn image_stem(label: &str, cell: &Cell) -> String {

@@ -7,7 +7,7 @@
 //! on one mesh, and [`measure_cell`] measures one cell (variant × projection × size × view)
 //! into one [`Row`].
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 use algorithms::camera::Camera;
@@ -23,16 +23,16 @@ use crate::progress;
 use crate::rows::{CsvSink, PairRow, Row};
 use crate::sweep::{self, Lock, Shard, ShardInfo};
 
-/// Bumped when the reference renderer's output changes, so old cache entries are not reused.
 mod cell;
 mod images;
+mod yardsticks;
 pub use cell::{
-    cells, isolated, measure_cell, measure_cell_interleaved, Cell, Prepared, TEST_PANIC_ENV,
+    cells, isolated, measure_cell, measure_cell_interleaved, Cell, Prepared, RefImage,
+    TEST_PANIC_ENV,
 };
-use images::{compare_pairs, image_stem, ref_path, save_images};
-pub use images::{mesh_hash, sanitize};
-
-const REFERENCE_VERSION: &str = "reference-exact-v1";
+use images::{compare_pairs, image_stem, save_images};
+pub use images::{image_hash, mesh_hash, sanitize};
+use yardsticks::{ref_path, references};
 
 /// What a run produced.
 #[derive(Debug, Default)]
@@ -113,11 +113,14 @@ pub fn preflight(exp: &Experiment, out: &Path) -> Result<()> {
     })?;
     let _ = std::fs::remove_file(&probe);
     for ds in &exp.datasets {
-        let spec = ds.mesh_spec(&exp.base_dir, exp.seed);
         let what = |e: Error| match e {
             Error::Input(m) => Error::Input(format!("dataset '{}': {m}", ds.display_name())),
             o => o,
         };
+        let spec = ds.mesh_spec(&exp.base_dir, exp.seed).map_err(what)?;
+        if spec.lattice.is_some() {
+            continue;
+        }
         if let Source::Nasa(n) = meshes::resolve(&spec.mesh, Path::new(".")).map_err(what)? {
             if let Some(Err(e)) = algorithms::io::resolve_short_name(n) {
                 return Err(what(e));
@@ -184,6 +187,7 @@ fn open_results(exp: &Experiment, opts: &RunOptions) -> Result<(CsvSink, Vec<Row
         }
         let _ = std::fs::remove_dir_all(opts.out.join("images"));
     }
+    let _ = std::fs::remove_dir_all(opts.out.join(yardsticks::RUN_DIR));
     Ok((CsvSink::create(&csv_path)?, Vec::new()))
 }
 
@@ -233,19 +237,17 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<Outcome> {
     'datasets: for ds in &exp.datasets {
         let name = ds.display_name();
         bar.set_message(format!("loading {name}"));
-        let mesh =
-            meshes::load_mesh(&ds.mesh_spec(&exp.base_dir, exp.seed)).map_err(|e| match e {
-                Error::Input(m) => Error::Input(format!("dataset '{name}': {m}")),
-                o => o,
-            })?;
+        let named = |e| match e {
+            Error::Input(m) => Error::Input(format!("dataset '{name}': {m}")),
+            o => o,
+        };
+        let spec = ds.mesh_spec(&exp.base_dir, exp.seed).map_err(named)?;
+        let mesh = meshes::load_mesh(&spec).map_err(named)?;
+        let lattice = spec.lattice.as_ref();
         let hash = mesh_hash(&mesh);
         // The units of this dataset (variant × cell), their shards and whether measured.
         let kept: Vec<usize> = (0..exp.variants.len())
-            .filter(|&v| {
-                exp.variants[v]
-                    .max_tets
-                    .is_none_or(|m| mesh.num_tets() <= m)
-            })
+            .filter(|&v| exp.variants[v].runs_on(&name, mesh.num_tets()))
             .collect();
         let frames = (exp.warmup + exp.repeats.max(1)) as f64;
         let costs: Vec<f64> = kept
@@ -271,16 +273,37 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<Outcome> {
         };
         let todo =
             |k: usize, c: usize| is_mine(k, c) && !done.contains(&key_of(kept[k], &cells[c]));
+        let mut ref_failed = BTreeMap::new();
         if exp.error {
-            let need: Vec<Cell> = (0..cells.len())
-                .filter(|&c| (0..kept.len()).any(|k| todo(k, c)))
-                .map(|c| cells[c].clone())
+            let need: Vec<(usize, Vec<usize>)> = (0..kept.len())
+                .map(|k| (kept[k], (0..cells.len()).filter(|&c| todo(k, c)).collect()))
                 .collect();
-            // Reference images first, so they never interleave with a measured renderer.
-            if !references(exp, opts, &mesh, &hash, &need, &bar, &name, &mut out)? {
+            // Yardstick images first, so they never interleave with a measured renderer.
+            let done = references(
+                exp,
+                opts,
+                &mesh,
+                &hash,
+                lattice,
+                &cells,
+                &need,
+                &bar,
+                &name,
+                &mut out,
+                &mut ref_failed,
+            )?;
+            if !done {
                 break 'datasets;
             }
         }
+        // A variant's yardstick image of a cell, or why there is none.
+        let ref_of = |var: &Variant, cell: &Cell| -> Option<(PathBuf, Option<String>)> {
+            exp.error.then(|| {
+                let p = ref_path(opts, &hash, var, lattice, cell);
+                let why = ref_failed.get(&p).cloned();
+                (p, why)
+            })
+        };
         let pair_labels: BTreeSet<&str> = exp
             .pairs
             .iter()
@@ -296,7 +319,7 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<Outcome> {
                     out: &mut Outcome|
          -> Result<()> {
             if let Some(img) = &image {
-                let reference = exp.error.then(|| ref_path(opts, &hash, exp, cell));
+                let reference = ref_of(var, cell).filter(|r| r.1.is_none()).map(|r| r.0);
                 save_images(exp, opts, var, &name, cell, img, reference.as_deref())?;
                 if pair_labels.contains(var.label.as_str()) {
                     let d = pair_dir.join(sanitize(&var.label));
@@ -311,7 +334,11 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<Outcome> {
         };
         let mut prepared = Vec::new();
         for (vi, var) in exp.variants.iter().enumerate() {
-            if var.max_tets.is_some_and(|m| mesh.num_tets() > m) {
+            if !var.runs_on(&name, mesh.num_tets()) {
+                // Left out by its `datasets`: nothing to say; by its `max_tets`: said.
+                if !var.runs_on(&name, 0) {
+                    continue;
+                }
                 progress::note(
                     &bar,
                     &format!(
@@ -344,8 +371,8 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<Outcome> {
                 }
                 let (w, h) = cell.size;
                 bar.set_message(format!("{name}: {} {w}x{h} {}", var.label, cell.view.id));
-                let reference = exp.error.then(|| ref_path(opts, &hash, exp, cell));
-                let (row, image) = measure_cell(exp, &mut p, cell, reference.as_deref())?;
+                let reference = ref_of(var, cell);
+                let (row, image) = measure_cell(exp, &mut p, cell, as_ref_image(&reference))?;
                 emit(var, cell, row, image, &mut csv, &mut out)?;
             }
         }
@@ -369,20 +396,20 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<Outcome> {
                 group.len(),
                 cell.view.id
             ));
-            let reference = exp.error.then(|| ref_path(opts, &hash, exp, cell));
+            let refs: Vec<_> = group.iter().map(|(v, _)| ref_of(v, cell)).collect();
+            let refs: Vec<Option<RefImage>> = refs.iter().map(as_ref_image).collect();
             let mut ps: Vec<&mut Prepared> = group.iter_mut().map(|(_, p)| &mut **p).collect();
-            let rows =
-                measure_cell_interleaved(exp, &mut ps, cell, reference.as_deref(), |v, t| {
-                    out.order.push(OrderRow {
-                        dataset: name.clone(),
-                        variant: v.to_string(),
-                        projection: cell.projection.name().to_string(),
-                        size: format!("{w}x{h}"),
-                        view: cell.view.id.clone(),
-                        warmup: t.warmup,
-                        round: t.round,
-                    })
-                })?;
+            let rows = measure_cell_interleaved(exp, &mut ps, cell, &refs, |v, t| {
+                out.order.push(OrderRow {
+                    dataset: name.clone(),
+                    variant: v.to_string(),
+                    projection: cell.projection.name().to_string(),
+                    size: format!("{w}x{h}"),
+                    view: cell.view.id.clone(),
+                    warmup: t.warmup,
+                    round: t.round,
+                })
+            })?;
             for ((var, _), (row, image)) in group.iter().zip(rows) {
                 emit(var, cell, row, image, &mut csv, &mut out)?;
             }
@@ -398,6 +425,9 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<Outcome> {
         let _ = std::fs::remove_dir_all(&pair_dir);
     }
     bar.finish_and_clear();
+    if !out.interrupted {
+        let _ = std::fs::remove_dir_all(opts.out.join(yardsticks::RUN_DIR));
+    }
     if exp.interleave {
         write_order(&opts.out.join("order.csv"), &out.order)?;
     }
@@ -408,47 +438,12 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<Outcome> {
     Ok(out)
 }
 
-/// Renders (or finds in the cache) the reference image of every cell. False when interrupted.
-#[allow(clippy::too_many_arguments)]
-fn references(
-    exp: &Experiment,
-    opts: &RunOptions,
-    mesh: &Mesh,
-    hash: &blake3::Hash,
-    cells: &[Cell],
-    bar: &ProgressBar,
-    name: &str,
-    out: &mut Outcome,
-) -> Result<bool> {
-    let mut reference: Option<Box<dyn Renderer>> = None;
-    for cell in cells {
-        if measure::interrupted() {
-            out.interrupted = true;
-            return Ok(false);
-        }
-        let (w, h) = cell.size;
-        bar.set_message(format!("{name}: reference {w}x{h} {}", cell.view.id));
-        let p = ref_path(opts, hash, exp, cell);
-        if p.exists() {
-            out.reference_hits += 1;
-        } else {
-            let r = match &mut reference {
-                Some(r) => r,
-                None => {
-                    let mut r = render::make("reference", &RenderOptions::default())?;
-                    r.prepare(mesh, &exp.tf)?;
-                    reference.insert(r)
-                }
-            };
-            let cam = Camera::new(&mesh.bbox(), cell.view.view, cell.projection, w, h);
-            let f = r.render(mesh, &cam)?;
-            std::fs::create_dir_all(&opts.cache_dir).map_err(|e| Error::io(&opts.cache_dir, e))?;
-            f.image.write(&p)?;
-            out.reference_renders += 1;
-        }
-        bar.inc(1);
-    }
-    Ok(true)
+/// A yardstick file, or why there is none, as [`measure_cell`] takes it.
+fn as_ref_image(r: &Option<(PathBuf, Option<String>)>) -> Option<RefImage<'_>> {
+    r.as_ref().map(|(p, why)| match why {
+        Some(w) => Err(w.as_str()),
+        None => Ok(p.as_path()),
+    })
 }
 
 /// Writes the frame order of an interleaved run.

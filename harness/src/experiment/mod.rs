@@ -1,5 +1,7 @@
 //! Experiment files (`tetbench bench CONFIG.toml`): the TOML schema, its validation with errors
-//! that name the key, and the expansion into datasets × variants × sizes × views.
+//! that name the key, and the expansion into datasets × variants × sizes × views. Datasets,
+//! renderers (variants and their yardsticks), transfer functions and views each have their own
+//! file beside this one.
 //!
 //! The keys are documented in `docs/experiments.md`; `harness/experiments/example.toml` is a
 //! real file that uses all of them.
@@ -9,14 +11,19 @@ use std::path::{Path, PathBuf};
 
 use algorithms::camera::{Projection, View};
 use algorithms::glam::DVec3;
-use algorithms::render::{self, RenderOptions};
 use algorithms::{Error, Result, TransferFunction};
-use serde::de::{self, MapAccess, SeqAccess, Visitor};
+use serde::de::{self, SeqAccess, Visitor};
 use serde::{Deserialize, Deserializer};
 
-use crate::meshes::{self, MeshSpec, Source};
+use crate::meshes;
 
+mod datasets;
+mod tf;
+mod variants;
 mod views;
+pub use datasets::DatasetSpec;
+pub use tf::{TfSpec, TfTable};
+pub use variants::{expand_renderer, variant_label, Over, RendererSpec, Variant, Yardstick};
 use views::expand_views;
 
 /// The experiment file as written.
@@ -39,9 +46,10 @@ pub struct Config {
     /// `"ortho"`, `"persp"` or a list of them (default `"ortho"`).
     #[serde(default)]
     pub projection: Option<OneOrMany>,
-    /// Transfer function: a preset name or a JSON file (relative to the experiment file).
+    /// Transfer function: a preset name or a JSON file (relative to the experiment file), or a
+    /// table (see [`TfSpec`]).
     #[serde(default)]
-    pub tf: Option<String>,
+    pub tf: Option<TfSpec>,
     /// Measured frames per view (median reported; default 3).
     #[serde(default)]
     pub repeats: Option<usize>,
@@ -72,65 +80,6 @@ pub struct Config {
     pub pairs: Vec<PairSpec>,
 }
 
-/// A dataset: a string (`name[:tets]`, short name or file) or a table.
-#[derive(Debug, Clone)]
-pub struct DatasetSpec {
-    pub mesh: String,
-    pub tets: Option<usize>,
-    pub scalar: Option<String>,
-    pub split: Option<u8>,
-    pub label: Option<String>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct DatasetTable {
-    mesh: String,
-    #[serde(default)]
-    tets: Option<usize>,
-    #[serde(default)]
-    scalar: Option<String>,
-    #[serde(default)]
-    split: Option<u8>,
-    #[serde(default)]
-    label: Option<String>,
-}
-
-impl<'de> Deserialize<'de> for DatasetSpec {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = DatasetSpec;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("a mesh name/file string or a table { mesh = ..., tets = ... }")
-            }
-            fn visit_str<E: de::Error>(self, s: &str) -> std::result::Result<DatasetSpec, E> {
-                Ok(DatasetSpec {
-                    mesh: s.to_string(),
-                    tets: None,
-                    scalar: None,
-                    split: None,
-                    label: None,
-                })
-            }
-            fn visit_map<A: MapAccess<'de>>(
-                self,
-                m: A,
-            ) -> std::result::Result<DatasetSpec, A::Error> {
-                let t = DatasetTable::deserialize(de::value::MapAccessDeserializer::new(m))?;
-                Ok(DatasetSpec {
-                    mesh: t.mesh,
-                    tets: t.tets,
-                    scalar: t.scalar,
-                    split: t.split,
-                    label: t.label,
-                })
-            }
-        }
-        d.deserialize_any(V)
-    }
-}
-
 /// A string or a list of strings.
 #[derive(Debug, Clone)]
 pub struct OneOrMany(pub Vec<String>);
@@ -159,32 +108,6 @@ impl<'de> Deserialize<'de> for OneOrMany {
         }
         d.deserialize_any(V)
     }
-}
-
-/// A renderer with the sorts and integrators to try (each absent: the renderer's default;
-/// `["*"]`: every one the registry lists for it, but the lattice-only sorts).
-#[derive(Deserialize, Debug, Clone, Default)]
-#[serde(deny_unknown_fields)]
-pub struct RendererSpec {
-    pub name: String,
-    #[serde(default)]
-    pub sorts: Option<Vec<String>>,
-    #[serde(default)]
-    pub integrators: Option<Vec<String>>,
-    /// Renderer parameters (`RenderOptions::params`), e.g. `params = { mode = "iso", iso =
-    /// "0.5" }`; they are added to the variant label as `[k=v,...]`.
-    #[serde(default)]
-    pub params: std::collections::BTreeMap<String, String>,
-    /// Run this renderer only on meshes with at most this many tets (the others get no row,
-    /// and the run says so): e.g. a GPU renderer on a software rasteriser.
-    #[serde(default)]
-    pub max_tets: Option<usize>,
-    /// A renderer that may not be able to run on this machine (VTK's peers without
-    /// `TETBENCH_VTK_PYTHON`, a GPU renderer without an adapter): when it cannot be made, its
-    /// rows are failed rows whose note says why (NaN times), and the rest of the run goes on,
-    /// instead of the whole experiment being refused.
-    #[serde(default)]
-    pub optional: bool,
 }
 
 /// Views: named `AZ,EL` strings, N Fibonacci views, and a rotation path.
@@ -223,20 +146,6 @@ pub struct PairSpec {
     pub reference: String,
 }
 
-/// One renderer variant: how to make it and its label (`renderer/sort/integrator`).
-#[derive(Debug, Clone)]
-pub struct Variant {
-    pub renderer: String,
-    /// See [`RendererSpec::max_tets`].
-    pub max_tets: Option<usize>,
-    /// Why an `optional` renderer cannot run here (see [`RendererSpec::optional`]).
-    pub unavailable: Option<String>,
-    pub options: RenderOptions,
-    pub label: String,
-    pub sort: String,
-    pub integrator: String,
-}
-
 /// A view with its id in the CSV (`named:0`, `fib:3`, `rot:5`).
 #[derive(Debug, Clone)]
 pub struct ViewItem {
@@ -253,6 +162,7 @@ pub struct Experiment {
     pub sizes: Vec<(u32, u32)>,
     pub views: Vec<ViewItem>,
     pub projections: Vec<Projection>,
+    /// The experiment's transfer function (a variant may have its own: [`Variant::tf`]).
     pub tf_name: String,
     pub tf: TransferFunction,
     pub repeats: usize,
@@ -307,7 +217,7 @@ fn toml_error(source: &str, text: &str, e: &toml::de::Error, key: Option<String>
     Error::Input(out)
 }
 
-fn key_err(key: impl fmt::Display, e: Error) -> Error {
+pub(crate) fn key_err(key: impl fmt::Display, e: Error) -> Error {
     match e {
         Error::Input(m) | Error::Io(m) => Error::Input(format!("key `{key}`: {m}")),
         other => other,
@@ -343,8 +253,20 @@ pub fn validate(cfg: Config, base: &Path) -> Result<Experiment> {
         ));
     }
     for (i, d) in cfg.datasets.iter().enumerate() {
-        check_dataset(d, base).map_err(|e| key_err(format!("datasets[{i}]"), e))?;
+        datasets::check_dataset(d, base).map_err(|e| key_err(format!("datasets[{i}]"), e))?;
     }
+    let tf = cfg
+        .tf
+        .clone()
+        .unwrap_or_else(|| TfSpec::Named("default".into()))
+        .resolve(base)
+        .map_err(|e| key_err("tf", e))?;
+    // A named TF keeps the name it was given (a file's path, as before).
+    let tf_name = match &cfg.tf {
+        Some(TfSpec::Named(n)) => n.clone(),
+        _ => tf.name.clone(),
+    };
+    let default_tf = (tf_name.clone(), tf.clone());
     if cfg.renderers.is_empty() {
         return Err(Error::Input(
             "key `renderers`: list at least one renderer".into(),
@@ -352,12 +274,14 @@ pub fn validate(cfg: Config, base: &Path) -> Result<Experiment> {
     }
     let mut variants = Vec::new();
     for (i, r) in cfg.renderers.iter().enumerate() {
-        let v = expand_renderer(r).map_err(|e| match &e {
+        let v = expand_renderer(r, &default_tf, base).map_err(|e| match &e {
             Error::Input(m) if m.starts_with("unknown renderer") => {
                 key_err(format!("renderers[{i}].name"), e)
             }
             _ => key_err(format!("renderers[{i}]"), e),
         })?;
+        check_renderer_datasets(r, &cfg.datasets)
+            .map_err(|e| key_err(format!("renderers[{i}]"), e))?;
         for x in v {
             if !variants.iter().any(|y: &Variant| y.label == x.label) {
                 variants.push(x);
@@ -398,14 +322,6 @@ pub fn validate(cfg: Config, base: &Path) -> Result<Experiment> {
         views.len() * sizes.len() * projections.len(),
         1_000_000,
     )?;
-    let tf_name = cfg.tf.clone().unwrap_or_else(|| "default".to_string());
-    let tf_path = base.join(&tf_name);
-    let tf = if TransferFunction::preset(&tf_name).is_none() && tf_path.exists() {
-        TransferFunction::load(&tf_path.display().to_string())
-    } else {
-        TransferFunction::load(&tf_name)
-    }
-    .map_err(|e| key_err("tf", e))?;
     let repeats = cfg.repeats.unwrap_or(3);
     if repeats == 0 {
         return Err(Error::Input("key `repeats`: must be at least 1".into()));
@@ -445,152 +361,41 @@ pub fn validate(cfg: Config, base: &Path) -> Result<Experiment> {
     })
 }
 
-fn check_dataset(d: &DatasetSpec, base: &Path) -> Result<()> {
-    if let Some(s) = d.split {
-        if s != 5 && s != 6 {
-            return Err(Error::Input(format!(
-                "split = {s}: expected 5 or 6 tets per hexahedron"
-            )));
+/// A renderer's `datasets` name datasets of the experiment, and an `analytic` yardstick has
+/// an analytic field on each dataset it runs on.
+fn check_renderer_datasets(r: &RendererSpec, datasets: &[DatasetSpec]) -> Result<()> {
+    let names: Vec<String> = datasets.iter().map(DatasetSpec::display_name).collect();
+    if let Some(only) = &r.datasets {
+        for d in only {
+            if !names.contains(d) {
+                return Err(Error::Input(format!(
+                    "datasets: '{d}' is not one of the experiment's datasets ({})",
+                    names.join(", ")
+                )));
+            }
         }
     }
-    let name = d.mesh.as_str();
-    if let Source::Generated { tets, .. } = meshes::resolve(name, base)? {
-        if tets.is_some() && d.tets.is_some() {
-            return Err(Error::Input(format!(
-                "'{name}': give the size either after ':' or as `tets`, not both"
-            )));
-        }
-        if d.tets == Some(0) {
-            return Err(Error::Input(format!("'{name}': tets must be at least 1")));
+    let analytic = r
+        .reference
+        .as_deref()
+        .is_some_and(|s| matches!(Yardstick::parse(s), Ok(Yardstick::Analytic(_))));
+    if analytic {
+        for (d, n) in datasets.iter().zip(&names) {
+            let runs = r.datasets.as_ref().is_none_or(|o| o.contains(n));
+            if runs && d.cells.is_none() {
+                return Err(Error::Input(format!(
+                    "reference: dataset '{n}' has no analytic field (build it with `cells` and `field`), or leave it out with `datasets`"
+                )));
+            }
         }
     }
     Ok(())
 }
 
-impl DatasetSpec {
-    /// The dataset's name in the CSV: the label, else the name as given (with `:tets`).
-    pub fn display_name(&self) -> String {
-        if let Some(l) = &self.label {
-            return l.clone();
-        }
-        match self.tets {
-            Some(t) => format!("{}:{t}", self.mesh),
-            None => self.mesh.clone(),
-        }
-    }
-
-    /// The mesh to load ([`meshes::load_mesh`]), a relative file resolved against `base`.
-    pub fn mesh_spec(&self, base: &Path, seed: u64) -> MeshSpec {
-        let mut mesh = self.mesh.clone();
-        if !Path::new(&mesh).exists() && base.join(&mesh).exists() {
-            mesh = base.join(&mesh).display().to_string();
-        }
-        if let Some(t) = self.tets {
-            mesh = format!("{mesh}:{t}");
-        }
-        MeshSpec {
-            scalar: self.scalar.clone(),
-            split: self.split,
-            seed,
-            ..MeshSpec::named(&mesh)
-        }
-    }
-}
-
-/// Expands one renderer entry into its variants, making each once to check the names.
-pub fn expand_renderer(r: &RendererSpec) -> Result<Vec<Variant>> {
-    let info = render::info(&r.name)?;
-    let sorts: Vec<Option<String>> = match &r.sorts {
-        None => vec![None],
-        Some(v) if v.iter().any(|s| s == "*") => info
-            .sorts
-            .iter()
-            .filter(|s| !algorithms::sort::info(s).is_ok_and(|i| i.lattice_only))
-            .map(|s| Some(s.to_string()))
-            .collect(),
-        Some(v) if v.is_empty() => vec![None],
-        Some(v) => v.iter().map(|s| Some(s.clone())).collect(),
-    };
-    let integrators: Vec<Option<String>> = match &r.integrators {
-        None => vec![None],
-        Some(v) if v.iter().any(|s| s == "*") => info
-            .integrators
-            .iter()
-            .map(|s| Some(s.to_string()))
-            .collect(),
-        Some(v) if v.is_empty() => vec![None],
-        Some(v) => v.iter().map(|s| Some(s.clone())).collect(),
-    };
-    let sorts = if sorts.is_empty() { vec![None] } else { sorts };
-    let mut out = Vec::new();
-    for s in &sorts {
-        for i in &integrators {
-            let options = RenderOptions {
-                sort: s.clone(),
-                integrator: i.clone(),
-                params: r
-                    .params
-                    .iter()
-                    .map(|(k, v)| (k.clone(), v.clone()))
-                    .collect(),
-            };
-            let params_label = || {
-                if r.params.is_empty() {
-                    String::new()
-                } else {
-                    let kv: Vec<String> =
-                        r.params.iter().map(|(k, v)| format!("{k}={v}")).collect();
-                    format!("[{}]", kv.join(","))
-                }
-            };
-            let made = match render::make(&r.name, &options) {
-                Ok(m) => m,
-                Err(e) if r.optional => {
-                    // Named as it would be: the default sort and integrator where none is given.
-                    let sort = s.clone().unwrap_or_else(|| info.default_sort.to_string());
-                    let integrator = i
-                        .clone()
-                        .unwrap_or_else(|| info.default_integrator.to_string());
-                    out.push(Variant {
-                        renderer: r.name.clone(),
-                        max_tets: r.max_tets,
-                        unavailable: Some(e.to_string()),
-                        options,
-                        label: variant_label(&r.name, &sort, &integrator) + &params_label(),
-                        sort,
-                        integrator,
-                    });
-                    continue;
-                }
-                Err(e) => return Err(e),
-            };
-            let sort = made.sort_name();
-            let integrator = made.integrator_name();
-            let label = variant_label(&made.name(), &sort, &integrator) + &params_label();
-            out.push(Variant {
-                renderer: made.name(),
-                max_tets: r.max_tets,
-                unavailable: None,
-                options,
-                label,
-                sort,
-                integrator,
-            });
-        }
-    }
-    Ok(out)
-}
-
-/// `renderer/sort/integrator`, leaving out empty parts.
-pub fn variant_label(renderer: &str, sort: &str, integrator: &str) -> String {
-    let mut l = renderer.to_string();
-    for p in [sort, integrator] {
-        if !p.is_empty() {
-            l.push('/');
-            l.push_str(p);
-        }
-    }
-    l
+/// The transfer function an experiment uses when it names none (`default`).
+pub fn default_tf() -> (String, TransferFunction) {
+    let tf = TransferFunction::preset("default").expect("the default preset exists");
+    ("default".into(), tf)
 }
 
 #[cfg(test)]
@@ -624,16 +429,17 @@ mod tests {
             optional,
             ..Default::default()
         };
-        let v = expand_renderer(&spec(true)).unwrap();
+        let expand = |r: &RendererSpec| expand_renderer(r, &default_tf(), Path::new("."));
+        let v = expand(&spec(true)).unwrap();
         assert_eq!(v.len(), 1);
         assert_eq!(v[0].label, "cpu-pt/bubble/partial");
         assert!(v[0].unavailable.as_deref().unwrap().contains("bubble"));
-        assert!(expand_renderer(&spec(false)).is_err());
+        assert!(expand(&spec(false)).is_err());
         let ok = RendererSpec {
             sorts: None,
             ..spec(true)
         };
-        assert!(expand_renderer(&ok).unwrap()[0].unavailable.is_none());
+        assert!(expand(&ok).unwrap()[0].unavailable.is_none());
     }
 
     #[test]

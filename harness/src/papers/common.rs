@@ -157,9 +157,8 @@ pub(crate) fn dataset(ctx: &Ctx, label: &str, quick_tets: Option<usize>) -> Data
     DatasetSpec {
         mesh,
         tets,
-        scalar: None,
-        split: None,
         label: Some(label.to_string()),
+        ..Default::default()
     }
 }
 
@@ -196,7 +195,7 @@ pub(crate) fn base_config(ctx: &Ctx, name: &str) -> Config {
             if ctx.quick { "128x128" } else { "512x512" }.to_string()
         ]),
         projection: Some(OneOrMany(vec!["ortho".into()])),
-        tf: Some("default".into()),
+        tf: Some(experiment::TfSpec::Named("default".into())),
         repeats: Some(2),
         warmup: Some(1),
         error: Some(true),
@@ -355,8 +354,10 @@ pub(crate) fn run_experiment(
     let mut opts = bench::RunOptions::new(&exp, &raw);
     opts.cache_dir = ctx.out.join(".cache");
     opts.title = t.id().to_string();
-    // `reproduce` regenerates its tables: the raw rows of an earlier run are replaced.
-    opts.force = true;
+    // `reproduce` regenerates its tables: the raw rows of an earlier run are replaced, unless
+    // it resumes one (an experiment with image pairs cannot resume: it is measured again).
+    opts.resume = ctx.resume && exp.pairs.is_empty();
+    opts.force = !opts.resume;
     opts.identity = blake3::hash(format!("{cfg:?}").as_bytes())
         .to_hex()
         .to_string();

@@ -93,7 +93,9 @@ fn hapt_t1_exp(ctx: &Ctx) -> std::result::Result<Config, String> {
         .map(|p| dataset(ctx, p.dataset, Some(20_000)))
         .collect();
     let spec = want(r, &T1_SORTS, &["partial"]).unwrap();
-    let vars = experiment::expand_renderer(&spec).map_err(|e| e.to_string())?;
+    let vars =
+        experiment::expand_renderer(&spec, &experiment::default_tf(), std::path::Path::new("."))
+            .map_err(|e| e.to_string())?;
     let label = |s: &str| {
         vars.iter()
             .find(|v| v.options.sort.as_deref() == Some(s))

@@ -60,6 +60,9 @@ pub struct Ctx {
     pub out: PathBuf,
     /// Whole, one shard of each experiment table, or the merge of shard directories.
     pub sweep: Sweep,
+    /// Keep the raw rows already measured under `DIR/raw/<id>/` (an interrupted run) and
+    /// measure only the missing ones; otherwise they are measured again.
+    pub resume: bool,
     /// Failed measurements in the tables run so far (`reproduce` exits 3 when there are any).
     pub failed: std::cell::Cell<usize>,
 }

@@ -1,0 +1,259 @@
+//! The images errors are measured against ([`Yardstick`]), one per variant and cell: the exact
+//! `reference` renderer's and the analytic ground truth, cached by content hash in the cache
+//! directory (shared between runs: their code changes rarely, and [`REFERENCE_VERSION`] or
+//! [`ANALYTIC_VERSION`] is bumped when it does); another renderer's, kept in `DIR/.yardsticks/`
+//! for this run only (renderers change often, and a stale image would be a false error).
+//!
+//! They are made before any variant of the dataset is measured, so that they never interleave
+//! with a measured renderer. One that cannot be made leaves its cells' rows without an error and
+//! with a note that says why; the run goes on.
+
+use std::collections::BTreeMap;
+
+use algorithms::bcc_recon::{self, BccDomain, Sampling};
+use algorithms::glam::DVec3;
+use algorithms::lattice::LatticeKind;
+use algorithms::optics::integrator;
+
+use super::*;
+use crate::experiment::{Over, Yardstick};
+use crate::meshes::LatticeSpec;
+
+/// Bumped when the exact reference renderer's output changes, so old cache entries are not
+/// reused.
+pub(super) const REFERENCE_VERSION: &str = "reference-exact-v1";
+/// Bumped when the analytic ground truth's integration changes.
+const ANALYTIC_VERSION: &str = "analytic-exact-v1";
+
+/// Where the yardstick images of this run live: `.yardsticks/` for renderers' images.
+pub(super) const RUN_DIR: &str = ".yardsticks";
+
+/// The file of variant `var`'s yardstick image for (mesh, cell).
+pub(super) fn ref_path(
+    opts: &RunOptions,
+    mesh: &blake3::Hash,
+    var: &Variant,
+    lattice: Option<&LatticeSpec>,
+    cell: &Cell,
+) -> PathBuf {
+    let mut x = blake3::Hasher::new();
+    let dir = match &var.yardstick {
+        Yardstick::Exact => {
+            x.update(REFERENCE_VERSION.as_bytes());
+            &opts.cache_dir
+        }
+        Yardstick::Renderer(name) => {
+            x.update(b"renderer-yardstick-v1");
+            x.update(name.as_bytes());
+            x.update(format!("{:?}", var.options).as_bytes());
+            &opts.out.join(RUN_DIR)
+        }
+        Yardstick::Analytic(over) => {
+            x.update(ANALYTIC_VERSION.as_bytes());
+            x.update(format!("{over:?}").as_bytes());
+            if let Some(l) = lattice {
+                x.update(l.field.name.as_bytes());
+                x.update(&l.truth_step.to_le_bytes());
+            }
+            &opts.cache_dir
+        }
+    };
+    x.update(mesh.as_bytes());
+    x.update(cell.projection.name().as_bytes());
+    x.update(&cell.size.0.to_le_bytes());
+    x.update(&cell.size.1.to_le_bytes());
+    x.update(&cell.view.view.azimuth.to_le_bytes());
+    x.update(&cell.view.view.elevation.to_le_bytes());
+    tf_bytes(&mut x, &var.tf);
+    let hex = x.finalize().to_hex();
+    dir.join(format!("ref-{}.exr", &hex[..32]))
+}
+
+/// What makes one yardstick's images: variants that share it share its images.
+fn maker_key(var: &Variant) -> String {
+    match &var.yardstick {
+        Yardstick::Renderer(n) => format!("{n}|{:?}|{:?}", var.options, var.tf),
+        y => format!("{y:?}|{:?}", var.tf),
+    }
+}
+
+/// A yardstick ready to render cells.
+enum Maker {
+    Renderer(Box<dyn Renderer>),
+    Analytic(Over, LatticeSpec),
+}
+
+impl Maker {
+    fn new(var: &Variant, mesh: &Mesh, lattice: Option<&LatticeSpec>) -> Result<Maker> {
+        let (name, options) = match &var.yardstick {
+            Yardstick::Exact => ("reference", RenderOptions::default()),
+            Yardstick::Renderer(n) => (n.as_str(), var.options.clone()),
+            Yardstick::Analytic(over) => {
+                let l = lattice.ok_or_else(|| {
+                    Error::Input("the dataset has no analytic field (`cells`)".into())
+                })?;
+                return Ok(Maker::Analytic(*over, *l));
+            }
+        };
+        let mut r = render::make(name, &options)?;
+        cell::isolated(|| r.prepare(mesh, &var.tf))?;
+        Ok(Maker::Renderer(r))
+    }
+
+    fn image(&mut self, mesh: &Mesh, tf: &TransferFunction, cam: &Camera) -> Result<Image> {
+        match self {
+            Maker::Renderer(r) => cell::isolated(|| r.render(mesh, cam)).map(|f| f.image),
+            Maker::Analytic(over, l) => analytic(mesh, l, *over, tf, cam),
+        }
+    }
+}
+
+/// The lattice's analytic field ray-integrated with `exact` over the mesh's cells or the
+/// lattice's box, every `truth_step`, with the mesh's `L` (CONVENTIONS §1) and the harness's
+/// camera.
+fn analytic(
+    mesh: &Mesh,
+    l: &LatticeSpec,
+    over: Over,
+    tf: &TransferFunction,
+    cam: &Camera,
+) -> Result<Image> {
+    let exact = integrator("exact", tf)?;
+    let sampling = Sampling {
+        map: tf.scalar_map(mesh.scalar_range()),
+        integ: exact.as_ref(),
+        step: l.truth_step,
+        diag: mesh.diagonal(),
+    };
+    let bbox = mesh.bbox();
+    let b = LatticeSpec::lattice_box();
+    // A CC lattice's cells fill its box: the box test is the clip to its bounding box.
+    let inside: Box<dyn Fn(DVec3) -> bool + Sync> = match (over, l.kind) {
+        (_, LatticeKind::Cc5 | LatticeKind::Cc6) => Box::new(|_| true),
+        (Over::Mesh, LatticeKind::Bcc) => {
+            let lat = mesh
+                .field_data
+                .get(datasets_gen::LATTICE_KEY)
+                .and_then(|v| algorithms::lattice::Lattice::from_field_data(v))
+                .ok_or_else(|| Error::Internal("a lattice dataset without its lattice".into()))?;
+            let dom = BccDomain {
+                n: lat.n,
+                origin: lat.origin,
+                h: lat.spacing,
+            };
+            Box::new(move |p| dom.contains(p))
+        }
+        (Over::LatticeBox, LatticeKind::Bcc) => {
+            Box::new(move |p: DVec3| p.cmpge(b.min).all() && p.cmple(b.max).all())
+        }
+    };
+    bcc_recon::ground_truth(&l.field.f, &*inside, &bbox, cam, sampling)
+}
+
+/// The yardstick images of one dataset: for every variant in `need` (index into the
+/// experiment's variants, with the cells of it still to measure), each cell's image rendered or
+/// found. A yardstick that fails leaves its message in `failed` (by file). False when
+/// interrupted.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn references(
+    exp: &Experiment,
+    opts: &RunOptions,
+    mesh: &Mesh,
+    hash: &blake3::Hash,
+    lattice: Option<&LatticeSpec>,
+    cells: &[Cell],
+    need: &[(usize, Vec<usize>)],
+    bar: &ProgressBar,
+    name: &str,
+    out: &mut Outcome,
+    failed: &mut BTreeMap<PathBuf, String>,
+) -> Result<bool> {
+    // Group the variants by what makes their yardstick; each group's cells once.
+    let mut groups: Vec<(String, usize, Vec<usize>)> = Vec::new();
+    for (v, cs) in need {
+        let key = maker_key(&exp.variants[*v]);
+        let g = match groups.iter().position(|g| g.0 == key) {
+            Some(i) => i,
+            None => {
+                groups.push((key, *v, Vec::new()));
+                groups.len() - 1
+            }
+        };
+        for &c in cs {
+            if !groups[g].2.contains(&c) {
+                groups[g].2.push(c);
+            }
+        }
+    }
+    for (_, v, mut cs) in groups {
+        cs.sort_unstable();
+        let var = &exp.variants[v];
+        let mut maker: Option<std::result::Result<Maker, String>> = None;
+        for c in cs {
+            let cell = &cells[c];
+            if measure::interrupted() {
+                out.interrupted = true;
+                return Ok(false);
+            }
+            let (w, h) = cell.size;
+            bar.set_message(format!(
+                "{name}: {} {w}x{h} {}",
+                var.yardstick.label(),
+                cell.view.id
+            ));
+            let p = ref_path(opts, hash, var, lattice, cell);
+            if p.exists() {
+                out.reference_hits += 1;
+                bar.inc(1);
+                continue;
+            }
+            let m = maker.get_or_insert_with(|| {
+                Maker::new(var, mesh, lattice)
+                    .map_err(|e| format!("{} could not be prepared: {e}", var.yardstick.label()))
+            });
+            let cam = Camera::new(&mesh.bbox(), cell.view.view, cell.projection, w, h);
+            let made = match m {
+                Ok(m) => m
+                    .image(mesh, &var.tf, &cam)
+                    .map_err(|e| format!("{}: {e}", var.yardstick.label())),
+                Err(e) => Err(e.clone()),
+            };
+            match made {
+                Ok(img) => {
+                    if let Some(d) = p.parent() {
+                        std::fs::create_dir_all(d).map_err(|e| Error::io(d, e))?;
+                    }
+                    img.write(&p)?;
+                    out.reference_renders += 1;
+                }
+                Err(why) => {
+                    progress::note(bar, &format!("{name}: {why}"));
+                    failed.insert(p, why);
+                }
+            }
+            bar.inc(1);
+        }
+    }
+    Ok(true)
+}
+
+fn tf_bytes(h: &mut blake3::Hasher, tf: &TransferFunction) {
+    h.update(tf.name.as_bytes());
+    match tf.range {
+        Some([a, b]) => {
+            h.update(&[1]);
+            h.update(&a.to_le_bytes());
+            h.update(&b.to_le_bytes());
+        }
+        None => {
+            h.update(&[0]);
+        }
+    }
+    for p in &tf.points {
+        h.update(&p.s.to_le_bytes());
+        for c in p.rgb {
+            h.update(&c.to_le_bytes());
+        }
+        h.update(&p.tau.to_le_bytes());
+    }
+}

@@ -19,7 +19,7 @@ table!(
     Table1,
     "hapt-table1",
     "HAPT Table 1: image error between centroid sorting and MPVONC, and against the exact order xmpvo (views over a sphere)",
-    "Image error between the centroid order and MPVONC, HAPT Table 1's metrics (on 8-bit values, docs/metrics.md) over views spread over a sphere, and the same against `xmpvo`, which is exact at image resolution on non-convex meshes too (MPVONC is not: see docs/conventions.md), with each order's own RMSE against the reference: how often and how much the cheap sort is wrong.",
+    "Image error between the centroid order and MPVONC, HAPT Table 1's metrics (on 8-bit values, CONVENTIONS §6) over views spread over a sphere, and the same against `xmpvo`, which is exact at image resolution on non-convex meshes too (MPVONC is not: see docs/sorts.md), with each order's own RMSE against the reference: how often and how much the cheap sort is wrong.",
     hapt_t1_exp,
     hapt_t1_build,
     |o: &Outcome, d: &std::path::Path| plots::pair_errors(&o.pairs, &d.join("hapt-table1-centroid_vs_mpvonc"))
@@ -213,7 +213,7 @@ fn hapt_t1_build(ctx: &Ctx, cfg: &Config, o: &Outcome) -> Table {
     }
     t.notes = common_notes(ctx, cfg);
     if let (Some(p), Some(x)) = (paper, exact) {
-        t.notes.push(format!("Max. Error, Avg. Error, Diff. Pixels: `{}` against `{}` (the paper's comparison, centroid against MPVONC), image by image (CONVENTIONS §6 on 8-bit values): Max. Error = largest channel difference over all views; Avg. Error = mean over views of the mean difference of differing channels; Diff. Pixels = mean over views of the share of non-background pixels that differ. The `vs xmpvo` columns: the same metrics of `{}` against `{}`, the order that is exact at image resolution on non-convex meshes too (docs/conventions.md). RMSE vs reference: each order's own error against the exact reference, mean over the views.", p.test, p.reference, x.test, x.reference));
+        t.notes.push(format!("Max. Error, Avg. Error, Diff. Pixels: `{}` against `{}` (the paper's comparison, centroid against MPVONC), image by image (CONVENTIONS §6 on 8-bit values): Max. Error = largest channel difference over all views; Avg. Error = mean over views of the mean difference of differing channels; Diff. Pixels = mean over views of the share of non-background pixels that differ. The `vs xmpvo` columns: the same metrics of `{}` against `{}`, the order that is exact at image resolution on non-convex meshes too (docs/sorts.md). RMSE vs reference: each order's own error against the exact reference, mean over the views.", p.test, p.reference, x.test, x.reference));
     }
     t
 }

@@ -250,8 +250,8 @@ impl FastIntegrator {
     /// lane-wise kernels compiled for the best instruction set of the CPU (x86-64-v3 where
     /// present, chosen at run time by `pulp`'s dispatch); `preint` runs the scalar definition.
     /// (The compiler keeps the lanes scalar because of the table look-ups; an explicit AVX2
-    /// kernel with gathers gave the same bits but was ~8 % slower per frame on the AMD EPYC
-    /// this was measured on — see docs/performance-history.md.)
+    /// kernel with gathers gave the same bits but was ~8 % slower per frame on an AMD EPYC,
+    /// whose gathers are microcoded: docs/performance.md.)
     #[inline]
     pub fn shade_batch(&self, b: &mut ShadeBatch) {
         match self {

@@ -328,7 +328,7 @@ impl<V: Copy> SpanSet<V> {
         // Splats in plain loops, not `array::map`: a closure does not inherit the target
         // features of the function it sits in, and when the compiler leaves it out of line (as
         // it did with 16 codegen units after an unrelated change) every splat became a call and
-        // the draw ran 1.48× slower (docs/performance-history.md, fifteenth pass).
+        // the draw ran 1.48× slower.
         let mut stepv = [simd.splat_f32s(0.0); 12];
         for (v, &d) in stepv.iter_mut().zip(&dx) {
             *v = simd.splat_f32s(d as f32);
@@ -514,7 +514,7 @@ fn small(
 
 /// The most centres a tet's pixel box may hold for [`small`] to draw it (boxes of up to 1, 2, 4,
 /// 8 and 16 centres: post's draw 0.886, 0.859, 0.850, 0.851, 0.891 of the rows' for all, in one
-/// interleaved run; `docs/performance-history.md`, thirteenth pass).
+/// interleaved run).
 const SMALL_CENTRES: i64 = 4;
 
 /// How many tets ahead `draw_tile` prefetches.

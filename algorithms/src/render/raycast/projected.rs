@@ -499,7 +499,7 @@ impl<E: Copy + Default> Default for Run<E> {
 /// compositing segment by segment (the queue's last segment is the current step's: each step
 /// queues one). The fallback counters keep the predicates and faces of the few steps walked
 /// past it, which were computed (they were put back too, at 4 stores a step: post's frame
-/// 3 070 M instructions with them, 2 988 M without; `docs/performance-history.md`, sixteenth pass).
+/// 3 070 M instructions with them, 2 988 M without).
 ///
 /// A crossing's depth and scalar are the barycentric blend of its face's vertices with the
 /// normalised weights (a third each where they sum to 0 or overflow), lane by lane; then, in

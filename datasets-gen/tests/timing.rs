@@ -1,5 +1,4 @@
-//! `cargo test --release -p datasets-gen --test timing -- --ignored --nocapture`: the issue's
-//! figure, generating `fighter` (1.4M tets) in under 5 s in release mode.
+//! `cargo test --release -p datasets-gen --test timing -- --ignored --nocapture`: generating `fighter` (1.4M tets) in under 5 s in release mode.
 
 #[test]
 #[ignore = "timing: run in release with --ignored"]

@@ -1,7 +1,7 @@
 //! Loading and the reference ray caster on `post` (falls back to the `post-like` analogue when
 //! the NASA files are absent). Run: `cargo bench -p tetbench --bench foundation`.
 //!
-//! Besides criterion's timings it prints the counters the issue asks for: cell steps per frame
+//! Besides criterion's timings it prints the counters that tell work from speed: cell steps per frame
 //! (for cell-steps/s) and the ray caster's measured heap bytes per tet.
 
 use std::time::Duration;

@@ -1,4 +1,4 @@
-//! Criterion benches of joint bilateral upsampling's two stages at 1024² (issue 14): the depth
+//! Criterion benches of joint bilateral upsampling's two stages at 1024²: the depth
 //! layers (k = 4) of the full-size and the 128² camera, and the filters (`bilateral`, `linear`)
 //! from a 128² ray-cast image, each as the fast path and as its scalar definition, so the
 //! speed-up is a ratio measured in one run. On blunt when the NASA data is found, else on its

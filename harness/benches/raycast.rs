@@ -1,4 +1,4 @@
-//! Criterion benches of the ray caster's stages, each on its own (issue 15): `prepare` (cell
+//! Criterion benches of the ray caster's stages, each on its own: `prepare` (cell
 //! links, boundary orientation, BVH), one frame of `raycast` (partial) and one of `reference`
 //! (exact), at 256² on a 200K-tet `spx2` analogue (generated, no download), and the same frames
 //! on blunt when the NASA data is found. The frame's counters (cell steps, filter fallbacks)

@@ -203,6 +203,21 @@ impl BccVolume {
                 })
                 .collect()
         };
+        Self::from_samples(n, origin, h, grid(n, 0.0), grid(n.map(|x| x + 1), 0.5))
+    }
+
+    /// A volume of samples already taken (e.g. a `bcc` mesh's vertex scalars): `primary`
+    /// holds `n[0]·n[1]·n[2]` values and `secondary` `(n[0]+1)·(n[1]+1)·(n[2]+1)`, both
+    /// `i`-fastest.
+    pub fn from_samples(
+        n: [usize; 3],
+        origin: DVec3,
+        h: DVec3,
+        primary: Vec<f64>,
+        secondary: Vec<f64>,
+    ) -> Self {
+        debug_assert_eq!(primary.len(), n[0] * n[1] * n[2]);
+        debug_assert_eq!(secondary.len(), (n[0] + 1) * (n[1] + 1) * (n[2] + 1));
         let bary = std::array::from_fn(|a| {
             std::array::from_fn(|u| {
                 let s0 = along(a, 0.5, RING[u][0], RING[u][1]);
@@ -214,8 +229,8 @@ impl BccVolume {
             n,
             origin,
             h,
-            primary: grid(n, 0.0),
-            secondary: grid(n.map(|x| x + 1), 0.5),
+            primary,
+            secondary,
             bary,
         }
     }

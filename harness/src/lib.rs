@@ -3,11 +3,11 @@
 //! - `stats`, `table` (numbers and paper tables), `rows` (measured rows and their CSV),
 //!   `meshes` (where meshes come from), `progress`, `sysinfo`;
 //! - `measure` (the one frame-timing loop), `plots`, `experiment` (experiment files);
-//! - `bench` (running an experiment), `bcc` (its own experiments);
-//! - `papers` (the papers' tables, one file per paper), `reproduce` (the loop over them); `cli` (clap, turned into the plain types above) and
+//! - `bench` (running an experiment, with `sweep` and `merge` for its shards);
+//! - `papers` (the papers' tables, one file per paper, each an experiment measured by `bench`),
+//!   `reproduce` (the loop over them); `cli` (clap, turned into the plain types above) and
 //!   `commands` (the subcommands), which nothing else uses.
 
-pub mod bcc;
 pub mod bench;
 pub mod cli;
 pub mod commands;

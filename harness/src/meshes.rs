@@ -89,6 +89,12 @@ pub fn field(name: &str) -> Result<&'static AnalyticField> {
     })
 }
 
+/// Primary points per axis of the `bcc` lattice with the information of `cells` CC cells per
+/// axis: `round(cells/√2) + 1`.
+pub fn bcc_points(cells: usize) -> usize {
+    (cells as f64 / std::f64::consts::SQRT_2).round().max(1.0) as usize + 1
+}
+
 /// A lattice over [-1, 1]³ sampling an analytic field: `cc5` or `cc6` with `cells` cells per
 /// axis (spacing h = 2/cells), or `bcc` with the same information (primary spacing nearest
 /// √2·h: `round(cells/√2)` cells per axis, BCC paper §4). Its ground truth is the field itself,
@@ -99,6 +105,10 @@ pub struct LatticeSpec {
     pub cells: usize,
     pub field: &'static AnalyticField,
     pub truth_step: f64,
+    /// Frame the camera on the lattice's box [-1, 1]³ instead of the mesh's bounding box
+    /// (a `bcc` mesh reaches half a cell beyond the box), so that lattices of different extent
+    /// over the one box are seen alike.
+    pub frame_box: bool,
 }
 
 impl LatticeSpec {
@@ -124,15 +134,22 @@ impl LatticeSpec {
             cells,
             field,
             truth_step,
+            frame_box: false,
         })
     }
 
     /// Primary points per axis of the `bcc` lattice: `round(cells/√2) + 1`.
     pub fn bcc_points(&self) -> usize {
-        (self.cells as f64 / std::f64::consts::SQRT_2)
-            .round()
-            .max(1.0) as usize
-            + 1
+        bcc_points(self.cells)
+    }
+
+    /// The box the camera frames for `mesh` built from this lattice.
+    pub fn frame(&self, mesh: &Mesh) -> Aabb {
+        if self.frame_box {
+            Self::lattice_box()
+        } else {
+            mesh.bbox()
+        }
     }
 
     /// The lattice's (primary) box, [-1, 1]³: where a regular-volume ray caster samples it.

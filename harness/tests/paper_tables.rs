@@ -162,3 +162,26 @@ fn jbu_table_runs_through_the_pipeline() {
         5,
     );
 }
+
+#[test]
+fn bcc_pt_table_runs_through_the_pipeline() {
+    table_through_the_pipeline(
+        "bcc_pt",
+        // Empty-space skipping on every lattice.
+        "cpu-pt/bcc-implicit-skip/partial[tf=sparse]@*",
+        "cc5 shell · cpu-pt/bcc-implicit-skip/partial[tf=sparse]: 1 of 1 measurements failed",
+        &["bcc_pt-time_vs_error.png", "bcc_pt-time_vs_error.svg"],
+        5,
+    );
+}
+
+#[test]
+fn bcc_reconstruction_table_runs_through_the_pipeline() {
+    table_through_the_pipeline(
+        "bcc_reconstruction",
+        "volume-raycast/exact[scheme=bary,step=0.0625]@*",
+        "BCC shell · volume-raycast/exact[scheme=bary,step=0.0625]: 1 of 1 measurements failed",
+        &["bcc_reconstruction-time_vs_error.png"],
+        3,
+    );
+}

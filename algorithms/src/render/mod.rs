@@ -92,6 +92,9 @@ pub enum Family {
     Wrapper,
     /// Runs another program (e.g. VTK's mappers); measured, not part of the papers' families.
     External,
+    /// Ray casts the regular volume a lattice mesh samples (the BCC paper's reconstruction
+    /// schemes); lattice meshes only.
+    Volume,
 }
 
 impl Family {
@@ -101,6 +104,7 @@ impl Family {
             Family::RayCasting => "ray casting",
             Family::Wrapper => "wrapper",
             Family::External => "external",
+            Family::Volume => "regular volume",
         }
     }
 }
@@ -149,6 +153,7 @@ registry! {
     ptint => [PTINT],
     hapt => [HAPT],
     vtk => [VTK_PT, VTK_RAYCAST, VTK_ZSWEEP],
+    volume_raycast => [VOLUME_RAYCAST],
     // The last entry, `jbu:<renderer>@<size>`, describes the wrapper pattern (see `is_wrapper`).
     jbu => [JBU],
 }

@@ -7,6 +7,7 @@ use std::time::Instant;
 
 use algorithms::camera::{Camera, Projection};
 use algorithms::image::Image;
+use algorithms::mesh::Aabb;
 use algorithms::render::{self, Renderer};
 use algorithms::{alloc, metrics, Error, Mesh, Result, TransferFunction};
 
@@ -47,11 +48,20 @@ pub struct Prepared {
     /// `prepare`'s error, reported in every row of the variant.
     failed: Option<String>,
     base: Row,
+    /// The box the camera frames (the mesh's bounding box unless the dataset says otherwise).
+    frame: Aabb,
 }
 
 impl Prepared {
     /// Makes the variant's renderer and prepares it, timing setup and counting its heap bytes.
-    pub fn new(exp: &Experiment, var: &Variant, dataset: &str, mesh: &Mesh) -> Result<Self> {
+    /// Its cameras frame `frame`.
+    pub fn new(
+        exp: &Experiment,
+        var: &Variant,
+        dataset: &str,
+        mesh: &Mesh,
+        frame: Aabb,
+    ) -> Result<Self> {
         let mut renderer: Box<dyn Renderer> = match &var.unavailable {
             Some(why) => Box::new(Unavailable {
                 name: var.renderer.clone(),
@@ -102,6 +112,7 @@ impl Prepared {
             mesh: fresh,
             failed: prep.err().map(|e| format!("prepare: {e}")),
             base,
+            frame,
         })
     }
 }
@@ -136,8 +147,8 @@ impl Renderer for Unavailable {
 
 /// Test-only: `TETBENCH_TEST_PANIC=VARIANT@VIEW_ID` makes the renderer of that one cell panic
 /// inside `render`, to prove that a panicking renderer costs one failed row, not the sweep
-/// (comma-separated cells; `VARIANT@*` for all of a variant's views). Not for users; it is set
-/// only by the harness's tests.
+/// (cells separated by `;`, as labels hold commas; `VARIANT@*` for all of a variant's views).
+/// Not for users; it is set only by the harness's tests.
 pub const TEST_PANIC_ENV: &str = "TETBENCH_TEST_PANIC";
 
 /// A renderer that panics when it renders (see [`TEST_PANIC_ENV`]).
@@ -189,14 +200,14 @@ fn cell_row(p: &Prepared, cell: &Cell) -> Row {
 
 fn cell_camera(p: &Prepared, cell: &Cell) -> Camera {
     let (w, h) = cell.size;
-    Camera::new(&p.mesh.bbox(), cell.view.view, cell.projection, w, h)
+    Camera::new(&p.frame, cell.view.view, cell.projection, w, h)
 }
 
 /// Whether [`TEST_PANIC_ENV`] asks variant `p` to panic in `cell`.
 fn test_panic(p: &Prepared, cell: &Cell) -> bool {
     let label = format!("{}@{}", p.base.variant, cell.view.id);
     std::env::var(TEST_PANIC_ENV).is_ok_and(|v| {
-        v.split(',')
+        v.split(';')
             .any(|c| c == label || c.strip_suffix("@*") == Some(p.base.variant.as_str()))
     })
 }

@@ -244,6 +244,7 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<Outcome> {
         let spec = ds.mesh_spec(&exp.base_dir, exp.seed).map_err(named)?;
         let mesh = meshes::load_mesh(&spec).map_err(named)?;
         let lattice = spec.lattice.as_ref();
+        let frame = lattice.map_or_else(|| mesh.bbox(), |l| l.frame(&mesh));
         let hash = mesh_hash(&mesh);
         // The units of this dataset (variant × cell), their shards and whether measured.
         let kept: Vec<usize> = (0..exp.variants.len())
@@ -285,6 +286,7 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<Outcome> {
                 &mesh,
                 &hash,
                 lattice,
+                &frame,
                 &cells,
                 &need,
                 &bar,
@@ -355,7 +357,7 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<Outcome> {
                 continue;
             }
             bar.set_message(format!("{name}: {} setup", var.label));
-            let mut p = Prepared::new(exp, var, &name, &mesh)?;
+            let mut p = Prepared::new(exp, var, &name, &mesh, frame)?;
             if exp.interleave {
                 // Measured below, cell by cell, with the other variants.
                 prepared.push((var, k, p));

@@ -13,6 +13,7 @@ use std::collections::BTreeMap;
 use algorithms::bcc_recon::{self, BccDomain, Sampling};
 use algorithms::glam::DVec3;
 use algorithms::lattice::LatticeKind;
+use algorithms::mesh::Aabb;
 use algorithms::optics::integrator;
 
 use super::*;
@@ -36,6 +37,7 @@ pub(super) fn ref_path(
     lattice: Option<&LatticeSpec>,
     cell: &Cell,
 ) -> PathBuf {
+    let framed = lattice.is_some_and(|l| l.frame_box);
     let mut x = blake3::Hasher::new();
     let dir = match &var.yardstick {
         Yardstick::Exact => {
@@ -64,6 +66,10 @@ pub(super) fn ref_path(
     x.update(&cell.size.1.to_le_bytes());
     x.update(&cell.view.view.azimuth.to_le_bytes());
     x.update(&cell.view.view.elevation.to_le_bytes());
+    if framed {
+        // Framed on the lattice's box, not the mesh's bounding box.
+        x.update(b"frame-lattice-box");
+    }
     tf_bytes(&mut x, &var.tf);
     let hex = x.finalize().to_hex();
     dir.join(format!("ref-{}.exr", &hex[..32]))
@@ -108,9 +114,9 @@ impl Maker {
     }
 }
 
-/// The lattice's analytic field ray-integrated with `exact` over the mesh's cells or the
-/// lattice's box, every `truth_step`, with the mesh's `L` (CONVENTIONS §1) and the harness's
-/// camera.
+/// The lattice's analytic field ray-integrated with `exact` every `truth_step`: over the mesh's
+/// cells with the mesh's `L` (CONVENTIONS §1), or over the lattice's box with the box's `L` (a
+/// regular volume's, as `volume-raycast` takes it).
 fn analytic(
     mesh: &Mesh,
     l: &LatticeSpec,
@@ -123,13 +129,19 @@ fn analytic(
         map: tf.scalar_map(mesh.scalar_range()),
         integ: exact.as_ref(),
         step: l.truth_step,
-        diag: mesh.diagonal(),
+        diag: match over {
+            Over::Mesh => mesh.diagonal(),
+            Over::LatticeBox => LatticeSpec::lattice_box().diagonal(),
+        },
     };
-    let bbox = mesh.bbox();
-    let b = LatticeSpec::lattice_box();
-    // A CC lattice's cells fill its box: the box test is the clip to its bounding box.
+    // Rays are clipped to `bbox`; `inside` cuts the domain out of it (a CC lattice's cells
+    // fill their box).
+    let bbox = match over {
+        Over::Mesh => mesh.bbox(),
+        Over::LatticeBox => LatticeSpec::lattice_box(),
+    };
     let inside: Box<dyn Fn(DVec3) -> bool + Sync> = match (over, l.kind) {
-        (_, LatticeKind::Cc5 | LatticeKind::Cc6) => Box::new(|_| true),
+        (Over::LatticeBox, _) | (_, LatticeKind::Cc5 | LatticeKind::Cc6) => Box::new(|_| true),
         (Over::Mesh, LatticeKind::Bcc) => {
             let lat = mesh
                 .field_data
@@ -142,9 +154,6 @@ fn analytic(
                 h: lat.spacing,
             };
             Box::new(move |p| dom.contains(p))
-        }
-        (Over::LatticeBox, LatticeKind::Bcc) => {
-            Box::new(move |p: DVec3| p.cmpge(b.min).all() && p.cmple(b.max).all())
         }
     };
     bcc_recon::ground_truth(&l.field.f, &*inside, &bbox, cam, sampling)
@@ -161,6 +170,7 @@ pub(super) fn references(
     mesh: &Mesh,
     hash: &blake3::Hash,
     lattice: Option<&LatticeSpec>,
+    frame: &Aabb,
     cells: &[Cell],
     need: &[(usize, Vec<usize>)],
     bar: &ProgressBar,
@@ -211,7 +221,7 @@ pub(super) fn references(
                 Maker::new(var, mesh, lattice)
                     .map_err(|e| format!("{} could not be prepared: {e}", var.yardstick.label()))
             });
-            let cam = Camera::new(&mesh.bbox(), cell.view.view, cell.projection, w, h);
+            let cam = Camera::new(frame, cell.view.view, cell.projection, w, h);
             let made = match m {
                 Ok(m) => m
                     .image(mesh, &var.tf, &cam)

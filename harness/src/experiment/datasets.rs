@@ -29,6 +29,10 @@ pub struct DatasetSpec {
     /// With `cells`: the step of the analytic ground truth along a ray, world units (default a
     /// tenth of the CC spacing, 2/cells/10).
     pub truth_step: Option<f64>,
+    /// With `cells`: `"box"` frames the camera on the lattice's box [-1, 1]³ instead of the
+    /// mesh's bounding box (`"mesh"`, the default; CONVENTIONS §2), so that lattices whose
+    /// meshes reach beyond the box (`bcc`) are seen exactly as the others.
+    pub frame: Option<String>,
 }
 
 #[derive(Deserialize)]
@@ -49,6 +53,8 @@ struct DatasetTable {
     field: Option<String>,
     #[serde(default)]
     truth_step: Option<f64>,
+    #[serde(default)]
+    frame: Option<String>,
 }
 
 impl<'de> Deserialize<'de> for DatasetSpec {
@@ -79,6 +85,7 @@ impl<'de> Deserialize<'de> for DatasetSpec {
                     cells: t.cells,
                     field: t.field,
                     truth_step: t.truth_step,
+                    frame: t.frame,
                 })
             }
         }
@@ -99,10 +106,10 @@ pub(super) fn check_dataset(d: &DatasetSpec, base: &Path) -> Result<()> {
         }
     }
     let name = d.mesh.as_str();
-    if d.cells.is_some() || d.field.is_some() || d.truth_step.is_some() {
+    if d.cells.is_some() || d.field.is_some() || d.truth_step.is_some() || d.frame.is_some() {
         if d.cells.is_none() {
             return Err(Error::Input(format!(
-                "'{name}': `field` and `truth_step` go with `cells` (a lattice built over [-1, 1]³)"
+                "'{name}': `field`, `truth_step` and `frame` go with `cells` (a lattice built over [-1, 1]³)"
             )));
         }
         if d.tets.is_some() || name.contains(':') {
@@ -163,7 +170,18 @@ impl DatasetSpec {
                 self.mesh
             )));
         }
-        Ok(Some(LatticeSpec::new(&self.mesh, cells, field, step)?))
+        let mut l = LatticeSpec::new(&self.mesh, cells, field, step)?;
+        l.frame_box = match self.frame.as_deref() {
+            None | Some("mesh") => false,
+            Some("box") => true,
+            Some(other) => {
+                return Err(Error::Input(format!(
+                    "'{}': frame = '{other}': expected mesh or box",
+                    self.mesh
+                )))
+            }
+        };
+        Ok(Some(l))
     }
 
     /// The mesh to load ([`meshes::load_mesh`]), a relative file resolved against `base`.

@@ -224,8 +224,10 @@ fn method_index(m: Method) -> usize {
     METHODS.iter().position(|x| *x == m).unwrap_or(0)
 }
 
-/// The cells of a run: datasets and renderers in the order they ran, resolutions ascending.
-fn jbu_cells(o: &Outcome) -> Vec<JbuCell> {
+/// The cells of a run, whatever order its rows came in (a merge of shards): by dataset in the
+/// order of `datasets` (others after them), renderer in the order of [`renderers`], resolution
+/// ascending.
+fn jbu_cells(o: &Outcome, datasets: &[String]) -> Vec<JbuCell> {
     let fr = frames(o);
     let mut keys: Vec<(String, String, u32)> = Vec::new();
     for x in fr.iter().filter(|x| x.method.is_some()) {
@@ -234,10 +236,17 @@ fn jbu_cells(o: &Outcome) -> Vec<JbuCell> {
             keys.push(k);
         }
     }
-    let order = keys.clone();
+    let rs = renderers().0;
     keys.sort_by_key(|k| {
-        let first = order.iter().position(|o| o.0 == k.0 && o.1 == k.1);
-        (first, k.2)
+        (
+            datasets
+                .iter()
+                .position(|d| *d == k.0)
+                .unwrap_or(usize::MAX),
+            rs.iter().position(|r| *r == k.1).unwrap_or(usize::MAX),
+            k.1.clone(),
+            k.2,
+        )
     });
     keys.into_iter()
         .map(|(ds, rn, res)| {
@@ -321,7 +330,8 @@ fn paper_tets(ds: &str) -> &'static str {
 
 fn jbu_build(ctx: &Ctx, cfg: &Config, o: &Outcome) -> Table {
     let (full, lows, views) = protocol(ctx.quick);
-    let cs = jbu_cells(o);
+    let names: Vec<String> = cfg.datasets.iter().map(DatasetSpec::display_name).collect();
+    let cs = jbu_cells(o, &names);
     let mut t = Table::default();
     for (c, hw) in [
         ("renderer", false),
@@ -499,7 +509,13 @@ fn file_part(renderer: &str) -> String {
 /// full-size frame; Fig. 3/4) and `jbu_rmse_<renderer>` (mean RMSE per resolution, one line per
 /// dataset and method; Fig. 5), PNG and SVG.
 fn jbu_plots(o: &Outcome, dir: &Path) -> Result<Vec<PathBuf>> {
-    let cs = jbu_cells(o);
+    let mut names: Vec<String> = Vec::new();
+    for r in &o.rows {
+        if !names.contains(&r.dataset) {
+            names.push(r.dataset.clone());
+        }
+    }
+    let cs = jbu_cells(o, &names);
     let full = o.rows.first().map_or(0, |r| r.width);
     let mut renderers: Vec<&str> = Vec::new();
     let mut datasets: Vec<&str> = Vec::new();

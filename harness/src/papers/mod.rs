@@ -46,6 +46,7 @@ macro_rules! table {
 
 pub mod aggregate;
 pub mod bcc;
+pub mod bcc_reconstruction;
 pub mod common;
 pub mod hapt;
 pub mod hapt_algorithms;
@@ -132,7 +133,7 @@ pub static TABLES: &[&dyn PaperTable] = &[
     &hapt_algorithms::Table4,
     &jbu::Figures,
     &bcc::Pt,
-    &bcc::Reconstruction,
+    &bcc_reconstruction::Reconstruction,
 ];
 
 /// The table with this id.

@@ -1,4 +1,4 @@
-//! Sweeps that outgrow one run (#17, #19): shards merged equal the unsharded run, a killed run
+//! Sweeps that outgrow one run: shards merged equal the unsharded run, a killed run
 //! resumed ends with the same rows and remeasures none, a panicking renderer costs one row,
 //! finished results are never destroyed silently, bad shard input gets one line.
 

@@ -571,3 +571,103 @@ fn jbu_plots(o: &Outcome, dir: &Path) -> Result<Vec<PathBuf>> {
     }
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::papers::Sweep;
+
+    /// A quick run's rows for one dataset: `raycast` at 512² and its wrappers, two views.
+    fn rows() -> Vec<Row> {
+        let cube = cube_views();
+        let mut v = Vec::new();
+        for (k, &view) in [cube[0], cube[8]].iter().enumerate() {
+            let row = |renderer: String, total_ms: f64, rmse: f64, counters: &str| Row {
+                dataset: "spx".into(),
+                tets: 13000,
+                renderer: renderer.clone(),
+                variant: format!("{renderer}/partial"),
+                width: 512,
+                height: 512,
+                view_id: format!("named:{k}"),
+                azimuth: view.azimuth,
+                elevation: view.elevation,
+                total_ms,
+                rmse: Some(rmse),
+                counters: counters.into(),
+                ..Default::default()
+            };
+            v.push(row("raycast".into(), 100.0 + k as f64, 0.0, ""));
+            for (i, low) in [64, 128, 256].into_iter().enumerate() {
+                for m in METHODS {
+                    // Bilateral loses to linear at 256² in the second view only.
+                    let rmse = match (m, i, k) {
+                        (Method::Bilateral, 2, 1) => 0.03,
+                        (Method::Bilateral, _, _) => 0.01,
+                        (Method::Linear, _, _) => 0.02,
+                        _ => 0.05,
+                    };
+                    v.push(row(
+                        format!("jbu:raycast@{low},method={}", m.name()),
+                        10.0 * (i + 1) as f64,
+                        rmse,
+                        "low_ms=4;depth_ms=1;filter_ms=5",
+                    ));
+                }
+            }
+        }
+        v
+    }
+
+    /// The table is the same whatever order its rows come in (a merge of shards), and its
+    /// cells hold the medians, means and worst views of the rows.
+    #[test]
+    fn the_table_does_not_depend_on_row_order() {
+        let ctx = Ctx {
+            quick: true,
+            out: std::env::temp_dir(),
+            sweep: Sweep::Whole,
+            resume: false,
+            failed: Default::default(),
+        };
+        let cfg = Config {
+            datasets: vec![DatasetSpec {
+                mesh: "spx".into(),
+                label: Some("spx".into()),
+                ..Default::default()
+            }],
+            repeats: Some(1),
+            warmup: Some(0),
+            ..Default::default()
+        };
+        let forward = Outcome {
+            rows: rows(),
+            ..Default::default()
+        };
+        let mut reversed = rows();
+        reversed.reverse();
+        let backward = Outcome {
+            rows: reversed,
+            ..Default::default()
+        };
+        let (a, b) = (
+            jbu_build(&ctx, &cfg, &forward),
+            jbu_build(&ctx, &cfg, &backward),
+        );
+        assert_eq!(a.rows, b.rows);
+        assert_eq!(a.rows.len(), 3);
+        let col = |name: &str| a.columns.iter().position(|c| c == name).unwrap();
+        let first = &a.rows[0];
+        assert_eq!(first[col("rendered")], "64² → 512²");
+        assert_eq!(first[col("time ms")], "10");
+        assert_eq!(first[col("full-size ms")], "100");
+        // The median over the views of 100/10 and 101/10.
+        assert_eq!(first[col("speed-up")], "10.1×");
+        assert_eq!(first[col("bilateral RMSE mean")], "**0.01000**");
+        let last = &a.rows[2];
+        assert_eq!(last[col("bilateral worst")], "0.03000");
+        assert_eq!(last[col("views bilateral ≤ linear")], "1/2");
+        assert_eq!(last[col("views losing")], "8");
+        assert_eq!(last[col("depth + filter ms")], "1 + 5");
+    }
+}

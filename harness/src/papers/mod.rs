@@ -73,11 +73,10 @@ pub struct Ctx {
 pub enum Sweep {
     /// Every row here.
     Whole,
-    /// `--shard I/N`: this shard of every experiment table's rows, under `DIR/raw/<id>/`; no
-    /// tables. The tables that are not experiments are left to the merge.
+    /// `--shard I/N`: this shard of every table's rows, under `DIR/raw/<id>/`; no tables.
     Shard(crate::sweep::Shard),
     /// `--merge`: the rows of the shard directories' `raw/<id>/`, checked and merged, then
-    /// the tables; the tables that are not experiments are run here.
+    /// the tables.
     Merge(Vec<PathBuf>),
 }
 
@@ -87,19 +86,13 @@ impl Ctx {
         let n = rows.iter().filter(|r| crate::sweep::failed(r)).count();
         self.failed.set(self.failed.get() + n);
     }
-
-    /// A table that is not an experiment skips a shard run (the merge runs it).
-    pub fn skip_unsharded(&self) -> Option<Done> {
-        matches!(self.sweep, Sweep::Shard(_))
-            .then(|| Done::Skipped("not sharded: run by `reproduce --merge`".into()))
-    }
 }
 
 /// What running a table gave.
 pub enum Done {
     /// A table for `DIR/<id>.csv` and `DIR/<id>.md`, and the plots it drew.
     Table { table: Table, plots: Vec<PathBuf> },
-    /// The table wrote its own files; the line says which (for the README).
+    /// Files but no table (a shard's raw rows); the line says which (for the README).
     Files(String),
     /// Not run, and why (one line).
     Skipped(String),

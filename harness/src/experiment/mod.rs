@@ -217,7 +217,7 @@ fn toml_error(source: &str, text: &str, e: &toml::de::Error, key: Option<String>
     Error::Input(out)
 }
 
-pub(crate) fn key_err(key: impl fmt::Display, e: Error) -> Error {
+fn key_err(key: impl fmt::Display, e: Error) -> Error {
     match e {
         Error::Input(m) | Error::Io(m) => Error::Input(format!("key `{key}`: {m}")),
         other => other,

@@ -79,7 +79,7 @@ impl Yardstick {
             name => {
                 render::info(name).map_err(|e| {
                     Error::Input(format!(
-                        "reference '{name}': expected reference, analytic, analytic-box or a renderer ({e})"
+                        "reference: '{name}': expected reference, analytic, analytic-box or a renderer ({e})"
                     ))
                 })?;
                 Yardstick::Renderer(name.to_string())
@@ -163,13 +163,13 @@ pub fn expand_renderer(
     let (tf_name, tf) = match &r.tf {
         None => tf.clone(),
         Some(spec) => {
-            let t = spec.resolve(base).map_err(|e| super::key_err("tf", e))?;
+            let t = spec.resolve(base).map_err(|e| prefixed("tf", e))?;
             (t.name.clone(), t)
         }
     };
     let yardstick = match &r.reference {
         None => Yardstick::Exact,
-        Some(s) => Yardstick::parse(s).map_err(|e| super::key_err("reference", e))?,
+        Some(s) => Yardstick::parse(s)?,
     };
     // Parameters and an own transfer function, as `[k=v,...,tf=NAME]` after the label.
     let suffix = {
@@ -228,7 +228,7 @@ pub fn expand_renderer(
             };
             if let Yardstick::Renderer(y) = &yardstick {
                 // The yardstick takes the variant's own options.
-                render::make(y, &options).map_err(|e| super::key_err("reference", e))?;
+                render::make(y, &options).map_err(|e| prefixed("reference", e))?;
             }
             out.push(variant(
                 made.name(),
@@ -239,6 +239,14 @@ pub fn expand_renderer(
         }
     }
     Ok(out)
+}
+
+/// An input error of the entry's key `key`, as `key: message`.
+fn prefixed(key: &str, e: Error) -> Error {
+    match e {
+        Error::Input(m) | Error::Io(m) => Error::Input(format!("{key}: {m}")),
+        other => other,
+    }
 }
 
 /// `renderer/sort/integrator`, leaving out empty parts.

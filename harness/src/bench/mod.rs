@@ -222,7 +222,11 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<Outcome> {
     info.write(&opts.out)?;
 
     let cells = cells(exp);
-    let refs = if exp.error { cells.len() } else { 0 };
+    let refs = if exp.error {
+        cells.len() * yardsticks::kinds(exp)
+    } else {
+        0
+    };
     let total = exp.datasets.len() * (exp.variants.len() * cells.len() + refs);
     let total = total.div_ceil(opts.shard.count);
     let bar = progress::bar(opts.progress, total as u64, &opts.title);

@@ -83,6 +83,12 @@ fn maker_key(var: &Variant) -> String {
     }
 }
 
+/// How many different yardsticks the experiment's variants have (images per cell, at most).
+pub(super) fn kinds(exp: &Experiment) -> usize {
+    let keys: std::collections::BTreeSet<String> = exp.variants.iter().map(maker_key).collect();
+    keys.len()
+}
+
 /// A yardstick ready to render cells.
 enum Maker {
     Renderer(Box<dyn Renderer>),

@@ -200,6 +200,31 @@ impl Camera {
     }
 }
 
+// The fixed-point pixel grid. Projected vertices are snapped to 1/SUBPIXEL pixel so that
+// every coverage decision of projected tetrahedra (`render::pt`), of the GPU renderers'
+// snapping (`view.wgsl`) and of XMPVO's exterior order is exact integer arithmetic.
+
+/// Bits of sub-pixel precision of the snapped vertex coordinates.
+pub const SUBPIXEL_BITS: u32 = 12;
+/// Snapped units per pixel.
+pub const SUBPIXEL: i64 = 1 << SUBPIXEL_BITS;
+/// Projected coordinates are clamped to ±this many pixels, which keeps every cross product of
+/// snapped coordinates (|x| < 2^30) exact in i64.
+pub const MAX_PIXEL_COORD: f64 = (1u64 << (30 - SUBPIXEL_BITS)) as f64;
+
+/// Snaps a continuous pixel coordinate to the fixed-point grid (round to nearest).
+#[inline]
+pub fn snap(px: f64) -> i64 {
+    // NaN clamps to NaN and converts to 0; positions are finite by construction.
+    (px.clamp(-MAX_PIXEL_COORD, MAX_PIXEL_COORD) * SUBPIXEL as f64).round() as i64
+}
+
+/// The snapped position of the centre of pixel `i` (column or row).
+#[inline]
+pub fn pixel_centre(i: i64) -> i64 {
+    (i << SUBPIXEL_BITS) + SUBPIXEL / 2
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

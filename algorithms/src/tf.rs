@@ -56,7 +56,7 @@ pub const PRESETS: [&str; 3] = ["default", "cool-warm", "xray"];
 impl TransferFunction {
     /// Most control points a transfer function may have: 8 per cell of `preint`'s 128-node
     /// table (`optics::PreintTable`), a quarter of the 4096 samples of the other
-    /// tables (`optics_f32::TF_SAMPLES`); finer detail is lost to all but `exact`. The
+    /// tables (`optics::fast::TF_SAMPLES`); finer detail is lost to all but `exact`. The
     /// bound keeps `preint`'s table build (O(table nodes · points)) within seconds; 10⁵–10⁶
     /// points took minutes to hours.
     pub const MAX_POINTS: usize = 1024;
@@ -349,7 +349,7 @@ mod tests {
     mod fuzz_tf {
         use super::*;
         use crate::io::vtk::tests::fuzz::*;
-        use crate::optics_f32::TfTable;
+        use crate::optics::fast::TfTable;
         use proptest::prelude::*;
 
         /// Numbers a hostile file may hold.

@@ -2,10 +2,12 @@
 //! with cells masked out (holes) or wrapped around one axis (periodic, for rings and tubes), and
 //! the body-centred cubic lattice (`bcc`).
 
-use algorithms::io::split::{hex_corner, hex_split_pattern};
 /// The lattice description and BCC tet numbering live in `algorithms` (the lattice sorts read
 /// them); re-exported here, where the lattices are built.
-pub use algorithms::lattice::{bcc_num_tets, bcc_tet_index, Lattice, LatticeKind, LATTICE_KEY};
+pub use algorithms::bcc::lattice::{
+    bcc_num_tets, bcc_tet_index, Lattice, LatticeKind, LATTICE_KEY,
+};
+use algorithms::io::split::{hex_corner, hex_split_pattern};
 use algorithms::mesh::signed_volume6;
 use glam::DVec3;
 use rayon::prelude::*;

@@ -14,8 +14,8 @@ use std::time::Duration;
 
 use algorithms::camera::{Camera, Projection, View};
 use algorithms::io::{self, LoadOptions};
-use algorithms::optics_f32::{FastIntegrator, ShadeBatch, BATCH};
-use algorithms::pt::{
+use algorithms::optics::fast::{FastIntegrator, ShadeBatch, BATCH};
+use algorithms::render::pt::{
     classify, fan_bits, raster_fan, raster_fan_rows, wedge, FanGeometry, ProjVertex, TetRaster,
     Thick,
 };

@@ -6,10 +6,10 @@
 
 use std::time::Duration;
 
-use algorithms::alloc::{self, CountingAlloc};
 use algorithms::camera::{Camera, Projection, View};
 use algorithms::io::{self, LoadOptions};
 use algorithms::render::{self, RenderOptions};
+use algorithms::util::alloc::{self, CountingAlloc};
 use algorithms::{Mesh, TransferFunction};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 

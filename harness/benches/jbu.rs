@@ -9,7 +9,9 @@ use std::time::Duration;
 
 use algorithms::camera::{Camera, Projection, View};
 use algorithms::io::{self, LoadOptions};
-use algorithms::jbu::{low_camera, upsample, upsample_scalar, BoundaryRaster, Method, Params};
+use algorithms::render::jbu::{
+    low_camera, upsample, upsample_scalar, BoundaryRaster, Method, Params,
+};
 use algorithms::render::{self, RenderOptions};
 use algorithms::{Mesh, TransferFunction};
 use criterion::{criterion_group, criterion_main, Criterion};

@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use algorithms::camera::{Camera, Projection, View};
 use algorithms::optics::{psi, PsiTable};
-use algorithms::pt::{classify, raster_fan, FanGeometry, ProjVertex};
+use algorithms::render::pt::{classify, raster_fan, FanGeometry, ProjVertex};
 use algorithms::render::{self, RenderOptions};
 use algorithms::{sort, Mesh, TransferFunction};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};

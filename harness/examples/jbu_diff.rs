@@ -11,7 +11,7 @@
 //! `MAXD=x` fixes the map's scale; `TIMES=n` times each method n more times (minimum of the depth and filter stages).
 use algorithms::camera::{Camera, Projection};
 use algorithms::image::Image;
-use algorithms::jbu::{cube_views, low_camera, BoundaryRaster, Params, Upsampler};
+use algorithms::render::jbu::{cube_views, low_camera, BoundaryRaster, Params, Upsampler};
 use algorithms::render::{self, RenderOptions};
 use algorithms::TransferFunction;
 use std::collections::BTreeMap;

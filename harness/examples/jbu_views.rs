@@ -12,7 +12,7 @@
 use std::time::Instant;
 
 use algorithms::camera::{Camera, Projection};
-use algorithms::jbu::{cube_views, low_camera, Params, Upsampler};
+use algorithms::render::jbu::{cube_views, low_camera, Params, Upsampler};
 use algorithms::render::{self, RenderOptions};
 use algorithms::{metrics, TransferFunction};
 use tetbench::meshes::{load_mesh, MeshSpec};

@@ -6,7 +6,7 @@ use algorithms::camera::{Camera, Projection, View};
 use algorithms::image::Image;
 use algorithms::io;
 use algorithms::render::{self, RenderOptions};
-use algorithms::{alloc, metrics, optics, tf, Error, Result, TransferFunction};
+use algorithms::{metrics, optics, tf, util::alloc, Error, Result, TransferFunction};
 use serde_json::{json, Map, Value};
 
 use crate::bench;

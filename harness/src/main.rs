@@ -5,7 +5,7 @@ use std::process::ExitCode;
 use clap::Parser;
 
 #[global_allocator]
-static ALLOC: algorithms::alloc::CountingAlloc = algorithms::alloc::CountingAlloc;
+static ALLOC: algorithms::util::alloc::CountingAlloc = algorithms::util::alloc::CountingAlloc;
 
 fn main() -> ExitCode {
     // `tetbench list | head` must end quietly, not panic on a closed pipe: restore the default

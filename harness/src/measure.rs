@@ -11,7 +11,7 @@ use algorithms::gpu::Gpu;
 use algorithms::image::Image;
 use algorithms::optics::PsiTable;
 use algorithms::render::{self, Frame, FrameTimes, Renderer};
-use algorithms::{alloc, Mesh, Result};
+use algorithms::{util::alloc, Mesh, Result};
 
 use crate::stats;
 

@@ -7,9 +7,9 @@
 
 use std::path::{Path, PathBuf};
 
+use algorithms::bcc::lattice::LatticeKind;
 use algorithms::glam::DVec3;
 use algorithms::io::{self, LoadOptions, Split};
-use algorithms::lattice::LatticeKind;
 use algorithms::mesh::Aabb;
 use algorithms::{Error, Mesh, Result};
 

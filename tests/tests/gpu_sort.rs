@@ -2,8 +2,8 @@
 //! identical, with many equal keys, +0.0/−0.0, negative keys and sizes that are not multiples of
 //! the workgroup (256) or the radix block (1024).
 
-use algorithms::gpu::sort::{sort_f32_keys, GpuSortKind};
 use algorithms::gpu::test_gpu;
+use algorithms::sort::gpu::{sort_f32_keys, GpuSortKind};
 
 /// The `centroid-radix` order: key descending in IEEE total order, ties by ascending index.
 fn cpu_order(keys: &[f32]) -> Vec<u32> {

@@ -7,8 +7,8 @@ use algorithms::glam::DVec3;
 use algorithms::image::Image;
 use algorithms::io::split::{hex_corner, hex_split_pattern};
 use algorithms::io::Split;
-use algorithms::jbu::{cube_views, upsample, BoundaryRaster, DepthLayers, Method, Params};
 use algorithms::metrics::compare;
+use algorithms::render::jbu::{cube_views, upsample, BoundaryRaster, DepthLayers, Method, Params};
 use algorithms::render::{self, RenderOptions};
 use algorithms::tf::{TfPoint, TransferFunction};
 use algorithms::{Error, Mesh};
@@ -404,7 +404,7 @@ fn fast_paths_equal_their_scalar_definitions() {
     for v in cube_views() {
         for (fw, fh, low) in [(96, 96, 12), (100, 80, 40)] {
             let full = Camera::new(&mesh.bbox(), v, Projection::Ortho, fw, fh);
-            let lc = algorithms::jbu::low_camera(&mesh, &full, low, low * fh / fw);
+            let lc = algorithms::render::jbu::low_camera(&mesh, &full, low, low * fh / fw);
             let img = r.render(&mesh, &lc).unwrap().image;
             for k in 1..=4 {
                 let lf = raster.layers(&full, k);
@@ -420,8 +420,14 @@ fn fast_paths_equal_their_scalar_definitions() {
                     ..Params::default()
                 };
                 let a = upsample(&img, &lc, &full, &p, Some((&lf, &ll))).unwrap();
-                let b = algorithms::jbu::upsample_scalar(&img, &lc, &full, &p, Some((&lf, &ll)))
-                    .unwrap();
+                let b = algorithms::render::jbu::upsample_scalar(
+                    &img,
+                    &lc,
+                    &full,
+                    &p,
+                    Some((&lf, &ll)),
+                )
+                .unwrap();
                 let bits = |i: &Image| -> Vec<u32> {
                     i.pixels.iter().flatten().map(|x| x.to_bits()).collect()
                 };
@@ -443,14 +449,14 @@ fn fast_paths_equal_their_scalar_definitions() {
     }
 }
 
-/// The documented defaults (`algorithms::jbu::PARAMS`, what `tetbench list` prints) are the
+/// The documented defaults (`algorithms::render::jbu::PARAMS`, what `tetbench list` prints) are the
 /// real ones: each parses, setting it changes nothing, and the wrapper's registry entry shows
 /// that same table.
 #[test]
 fn the_documented_defaults_are_the_real_ones() {
     let d = Params::default();
     assert_eq!((d.method, d.k, d.sigma_r), (Method::Bilateral, 4, 0.02));
-    for p in algorithms::jbu::PARAMS {
+    for p in algorithms::render::jbu::PARAMS {
         let mut q = d;
         q.set(p.name, p.default)
             .unwrap_or_else(|e| panic!("{}: {e}", p.name));
@@ -470,7 +476,7 @@ fn the_documented_defaults_are_the_real_ones() {
 
 #[test]
 fn params_from_spec() {
-    use algorithms::jbu::{Method, Params};
+    use algorithms::render::jbu::{Method, Params};
     let p = Params::from_spec("bilateral:k=2:s=0.01:c=0.2:r=3").unwrap();
     assert_eq!(
         (p.method, p.k, p.sigma_r, p.sigma_c, p.radius),

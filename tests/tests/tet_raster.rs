@@ -1,5 +1,5 @@
-//! The whole-tet rasteriser of cpu-pt's fast path (`pt::TetRaster`) against the per-triangle
-//! one (`pt::raster_fan`, the general path's and the definition of coverage) on every tet of a
+//! The whole-tet rasteriser of cpu-pt's fast path (`render::pt::TetRaster`) against the per-triangle
+//! one (`render::pt::raster_fan`, the general path's and the definition of coverage) on every tet of a
 //! real mesh as the renderer projects it: the NASA `post` grid (when its file is there) and the
 //! `post-like` analogue, at 512², two views, over the whole image and clipped to 64×64 tiles.
 //! Same centres, same fan triangles, the same barycentric weights to rounding.
@@ -7,7 +7,7 @@
 mod common;
 
 use algorithms::camera::{Camera, Projection, View};
-use algorithms::pt::{classify, raster_fan, FanGeometry, Fragment, ProjVertex, TetRaster};
+use algorithms::render::pt::{classify, raster_fan, FanGeometry, Fragment, ProjVertex, TetRaster};
 use algorithms::{Mesh, TransferFunction};
 
 fn check(name: &str, mesh: &Mesh) {

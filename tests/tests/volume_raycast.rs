@@ -3,7 +3,7 @@
 //! itself; it refuses meshes without a lattice, schemes of the other lattice and bad parameters
 //! in one line.
 
-use algorithms::bcc_recon::{self, BccVolume, CcVolume, Sampling, Scheme, Volume};
+use algorithms::bcc::recon::{self, BccVolume, CcVolume, Sampling, Scheme, Volume};
 use algorithms::camera::{Camera, Projection, View};
 use algorithms::glam::DVec3;
 use algorithms::image::Image;
@@ -70,7 +70,7 @@ fn the_meshes_samples_cast_as_the_fields_own_volume() {
         View::new(0.0, 0.0),
     ] {
         let cam = Camera::new(&bbox, v, Projection::Ortho, 24, 24);
-        let want = bcc_recon::raycast(
+        let want = recon::raycast(
             Volume::Cc(&vol),
             Scheme::Trilinear,
             &cam,
@@ -85,7 +85,7 @@ fn the_meshes_samples_cast_as_the_fields_own_volume() {
             Scheme::ShearedTrilinear,
         ] {
             let step = hb.x / (2.0 * std::f64::consts::SQRT_2);
-            let want = bcc_recon::raycast(Volume::Bcc(&bvol), s, &cam, sampling(step)).unwrap();
+            let want = recon::raycast(Volume::Bcc(&bvol), s, &cam, sampling(step)).unwrap();
             let got = render(&bcc, s.name(), &cam);
             assert_eq!(got.pixels, want.pixels, "{} {v:?}", s.name());
             assert_eq!(got.non_finite_pixels(), 0);

@@ -12,7 +12,7 @@
 mod common;
 
 use algorithms::camera::{fibonacci_views, Camera, Projection};
-use algorithms::jbu::BoundaryRaster;
+use algorithms::render::jbu::BoundaryRaster;
 use algorithms::render::raycast::RayCaster;
 use algorithms::render::Renderer;
 use algorithms::{Mesh, TransferFunction};

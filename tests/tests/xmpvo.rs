@@ -10,8 +10,8 @@ mod common;
 
 use algorithms::camera::{fibonacci_views, Camera, Projection, View};
 use algorithms::image::Image;
-use algorithms::jbu::BoundaryRaster;
 use algorithms::metrics::compare;
+use algorithms::render::jbu::BoundaryRaster;
 use algorithms::render::{self, RenderOptions};
 use algorithms::{Mesh, TransferFunction};
 
@@ -171,7 +171,7 @@ fn xmpvo_matches_the_reference_on_the_nasa_grids() {
 /// 50, 128², where the teeth's faces are 0.28° from edge-on and a grid plane projects 4·10⁻⁴ px
 /// from the pixel centres of column 42. cpu-pt interpolated `l` over the snapped fan, 1 % low
 /// there (RMSE 3.9e-5, max_abs 1.56e-3 on that column); it now takes each fragment's segment from
-/// the unsnapped faces (`algorithms::pt::faces`): RMSE 2.9e-8, max_abs 3.6e-7.
+/// the unsnapped faces (`algorithms::render::pt::faces`): RMSE 2.9e-8, max_abs 3.6e-7.
 #[test]
 fn near_edge_on_faces_keep_their_thickness() {
     let tf = TransferFunction::preset("default").unwrap();

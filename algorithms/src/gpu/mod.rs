@@ -15,7 +15,6 @@
 //! `TETBENCH_REQUIRE_GPU=1` (CI sets it: a missing driver is a failure) and otherwise prints
 //! that the test was skipped and returns `None`.
 
-pub mod optics;
 pub mod shader;
 
 use std::sync::{Arc, OnceLock};
@@ -25,8 +24,6 @@ use crate::error::{Error, Result};
 use crate::image::Image;
 
 pub use wgpu;
-
-pub mod sort;
 
 /// The device, its queue and what the adapter can do.
 pub struct Gpu {

@@ -1,11 +1,14 @@
-//! WGSL sources of the GPU renderers and their composition. One file per shader stage under
-//! `shaders/` (`*.comp.wgsl`, `*.vert.wgsl`, `*.frag.wgsl`); the functions they share live in
-//! library files (`view.wgsl`, `classify.wgsl`, `optics.wgsl`) that [`compose`] prepends, after
-//! the generated classification table ([`crate::pt::table_wgsl`]): no WGSL function is written
-//! twice and the table is never retyped.
+//! WGSL composition for the GPU renderers and the pieces of their pipelines they share. Each
+//! shader stage is one file beside the code that runs it (`*.comp.wgsl`, `*.vert.wgsl`,
+//! `*.frag.wgsl`); the functions several stages share live in library files that [`compose`]
+//! prepends: the ones here (`view.wgsl`, `classify.wgsl`, `volume.wgsl`), `optics.wgsl` beside
+//! the integrators' tables (`optics::gpu`) and each renderer's own. A stage is
+//! composed after a generated prelude: for the projected-tetrahedra stages the classification
+//! table of `render::pt::table_wgsl`, so no WGSL function is written twice and the
+//! table is never retyped.
 //!
 //! Bind groups shared by the stages: `@group(0)` the integrator's tables
-//! ([`super::optics::OpticsTables`]), `@group(1)` the view ([`ViewUniform`]), `@group(2)` the
+//! (`optics::gpu::OpticsTables`), `@group(1)` the view ([`ViewUniform`]), `@group(2)` the
 //! renderer's own buffers.
 
 use crate::camera::{Camera, Projection};
@@ -13,49 +16,20 @@ use crate::error::{Error, Result};
 
 use super::Gpu;
 
-/// Library: the camera uniform, projection and snapping (CONVENTIONS §2, `pt::snap`).
-pub const VIEW: &str = include_str!("shaders/view.wgsl");
-/// Library: exact classification (`pt::classify`) on 64-bit integers emulated in u32 pairs.
-pub const CLASSIFY: &str = include_str!("shaders/classify.wgsl");
+/// Library: the camera uniform, projection and snapping (CONVENTIONS §2, `camera::snap`).
+pub const VIEW: &str = include_str!("view.wgsl");
+/// Library: exact classification (`render::pt::classify`) on 64-bit integers emulated in u32
+/// pairs.
+pub const CLASSIFY: &str = include_str!("classify.wgsl");
 /// Library: `VolumeVarying`, what a vertex stage hands `volume.frag.wgsl`, and its builders.
-pub const VOLUME: &str = include_str!("shaders/volume.wgsl");
-/// Library: element types of `ptint`'s buffers.
-pub const PTINT: &str = include_str!("shaders/ptint.wgsl");
-/// Library: `segment(s_f, s_b, l)` for `average`, `partial`, `preint` (port of `optics_f32`).
-pub const OPTICS: &str = include_str!("shaders/optics.wgsl");
+pub const VOLUME: &str = include_str!("volume.wgsl");
 
 /// Fragment stage of the volume (premultiplied, "over" with `One, OneMinusSrcAlpha`).
-pub const VOLUME_FRAG: &str = include_str!("shaders/volume.frag.wgsl");
-/// Test-only compute stage evaluating `segment` on a list of triples.
-pub const OPTICS_TEST_COMP: &str = include_str!("shaders/optics_test.comp.wgsl");
-/// `ptint` pass 1a: project every vertex.
-pub const PTINT_PROJECT_COMP: &str = include_str!("shaders/ptint_project.comp.wgsl");
-/// `ptint` pass 1b: classify every tet, write its record and its sort key.
-pub const PTINT_CLASSIFY_COMP: &str = include_str!("shaders/ptint_classify.comp.wgsl");
-/// `ptint` pass 2: vertex stage pulling the fan of each sorted tet.
-pub const PTINT_FAN_VERT: &str = include_str!("shaders/ptint_fan.vert.wgsl");
+pub const VOLUME_FRAG: &str = include_str!("volume.frag.wgsl");
 
-/// Every stage with the libraries it is composed with, for the compile test and the renderers.
-pub const STAGES: &[(&str, &str, &[&str])] = &[
-    ("volume.frag.wgsl", VOLUME_FRAG, VOLUME_FRAG_LIBS),
-    ("optics_test.comp.wgsl", OPTICS_TEST_COMP, &[OPTICS]),
-    (
-        "ptint_project.comp.wgsl",
-        PTINT_PROJECT_COMP,
-        &[VIEW, PTINT],
-    ),
-    ("ptint_classify.comp.wgsl", PTINT_CLASSIFY_COMP, PTINT_LIBS),
-    ("ptint_fan.vert.wgsl", PTINT_FAN_VERT, PTINT_LIBS),
-];
-
-/// The libraries of `volume.frag.wgsl`.
-pub const VOLUME_FRAG_LIBS: &[&str] = &[VIEW, VOLUME, OPTICS];
-/// The libraries of `ptint`'s classify and fan stages.
-pub const PTINT_LIBS: &[&str] = &[VIEW, CLASSIFY, VOLUME, PTINT];
-
-/// The source of one stage: the generated table, then the libraries in order, then the stage.
-pub fn compose(stage: &str, libs: &[&str]) -> String {
-    let mut s = crate::pt::table_wgsl();
+/// The source of one stage: the prelude, then the libraries in order, then the stage.
+pub fn compose(prelude: &str, stage: &str, libs: &[&str]) -> String {
+    let mut s = prelude.to_string();
     for l in libs {
         s.push('\n');
         s.push_str(l);
@@ -67,13 +41,19 @@ pub fn compose(stage: &str, libs: &[&str]) -> String {
 
 /// Compiles a composed stage; a WGSL error (a bug, never bad input) comes back as
 /// `Error::Internal` naming the stage.
-pub fn module(gpu: &Gpu, name: &str, stage: &str, libs: &[&str]) -> Result<wgpu::ShaderModule> {
+pub fn module(
+    gpu: &Gpu,
+    name: &str,
+    prelude: &str,
+    stage: &str,
+    libs: &[&str],
+) -> Result<wgpu::ShaderModule> {
     let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
     let m = gpu
         .device
         .create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some(name),
-            source: wgpu::ShaderSource::Wgsl(compose(stage, libs).into()),
+            source: wgpu::ShaderSource::Wgsl(compose(prelude, stage, libs).into()),
         });
     if let Some(e) = pollster::block_on(scope.pop()) {
         return Err(Error::Internal(format!("shader {name}: {e}")));
@@ -224,40 +204,4 @@ pub fn volume_pipeline(
             multiview_mask: None,
             cache: None,
         })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn every_stage_compiles() {
-        let Some(gpu) = super::super::test_gpu("every_stage_compiles") else {
-            return;
-        };
-        for (name, src, libs) in STAGES {
-            module(&gpu, name, src, libs).unwrap_or_else(|e| panic!("{e}"));
-        }
-        // A broken stage is reported, naming it.
-        let e = module(&gpu, "broken", "fn f() -> u32 { return 1.0; }", &[]).unwrap_err();
-        assert!(e.to_string().contains("broken"), "{e}");
-    }
-
-    #[test]
-    fn composed_source_carries_the_generated_table() {
-        let s = compose(VOLUME_FRAG, VOLUME_FRAG_LIBS);
-        assert!(s.starts_with(&crate::pt::table_wgsl()));
-        assert!(s.contains("fn segment(") && s.contains("fn fs_volume("));
-        // No function is defined in two files.
-        let libs = [VIEW, CLASSIFY, OPTICS, VOLUME, PTINT];
-        let mut seen = std::collections::HashSet::new();
-        for src in libs.iter().chain(STAGES.iter().map(|s| &s.1)) {
-            for line in src.lines() {
-                if let Some(rest) = line.strip_prefix("fn ") {
-                    let name = rest.split('(').next().unwrap().to_string();
-                    assert!(seen.insert(name.clone()), "fn {name} defined twice");
-                }
-            }
-        }
-    }
 }

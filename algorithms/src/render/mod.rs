@@ -134,6 +134,8 @@ pub struct RendererInfo {
     pub make: fn(&RenderOptions) -> Result<Box<dyn Renderer>>,
 }
 
+pub mod pt;
+
 /// Declares each renderer module and lists its registry entries, so that the registry is the
 /// one place renderers are known by.
 macro_rules! registry {
@@ -250,21 +252,6 @@ pub fn ms_since(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
 }
 
-/// A hint to bring the cache line at `p` in (a no-op where there is no such instruction). `p`
-/// need not point into anything: a prefetch never faults, so an index past an array (a link
-/// to the boundary) may be passed as it is.
-#[inline(always)]
-pub(crate) fn prefetch<T>(p: *const T) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: a prefetch has no architectural effect and never faults (SSE is baseline).
-    unsafe {
-        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        _mm_prefetch::<_MM_HINT_T0>(p.cast());
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = p;
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -291,7 +278,7 @@ mod tests {
         }
         for i in crate::optics::REGISTRY {
             assert_eq!(
-                crate::gpu::optics::GPU_INTEGRATORS.contains(&i.name),
+                crate::optics::gpu::GPU_INTEGRATORS.contains(&i.name),
                 i.on_gpu,
                 "{}",
                 i.name

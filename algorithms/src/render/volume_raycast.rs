@@ -1,5 +1,5 @@
 //! `volume-raycast`: ray casting the regular volume that a lattice mesh's vertices sample, with
-//! the BCC paper's reconstruction schemes (§3; [`crate::bcc_recon`]): trilinear on a CC lattice
+//! the BCC paper's reconstruction schemes (§3; [`crate::bcc::recon`]): trilinear on a CC lattice
 //! (`cc5`, `cc6`: the tets are not used, only the grid of samples), `bil`, `bilspat`, `bary`,
 //! `shtril` on a `bcc` lattice. Lattice meshes only (their `field_data["lattice"]`), orthographic
 //! views only.
@@ -18,10 +18,10 @@
 use std::time::Instant;
 
 use super::{ms_since, Family, Frame, FrameTimes, RenderOptions, Renderer, RendererInfo};
-use crate::bcc_recon::{self, BccVolume, CcVolume, Sampling, Scheme, Volume};
+use crate::bcc::recon::{self, BccVolume, CcVolume, Sampling, Scheme, Volume};
 use crate::camera::Camera;
 use crate::error::{Error, Result};
-use crate::lattice::{Lattice, LatticeKind};
+use crate::bcc::lattice::{Lattice, LatticeKind};
 use crate::mesh::Mesh;
 use crate::optics::{self, Integrator, INTEGRATORS};
 use crate::plugin::ParamInfo;
@@ -224,7 +224,7 @@ impl Renderer for VolumeRaycast {
             diag: p.diag,
         };
         let t0 = Instant::now();
-        let image = bcc_recon::raycast(vol, p.scheme, camera, sampling)?;
+        let image = recon::raycast(vol, p.scheme, camera, sampling)?;
         let ms = ms_since(t0);
         Ok(Frame {
             image,

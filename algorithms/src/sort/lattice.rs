@@ -2,7 +2,7 @@
 //! structure, with no sort (BCC paper §4.1), and the same with empty-space skipping (§4.2).
 //!
 //! Works on meshes that `datasets-gen` built on a `bcc`, `cc5` or `cc6` lattice: the lattice
-//! description travels in `mesh.field_data["lattice"]` ([`crate::lattice`]), so a written and
+//! description travels in `mesh.field_data["lattice"]` ([`crate::bcc::lattice`]), so a written and
 //! re-read `.vtu` works too. Any other mesh is refused in `prepare` with one line.
 //!
 //! # Order (orthographic)
@@ -82,7 +82,7 @@
 use super::{Sort, SortInfo, SortStats};
 use crate::camera::{Camera, Projection};
 use crate::error::{Error, Result};
-use crate::lattice::{bcc_axis_offset, Lattice, LatticeKind};
+use crate::bcc::lattice::{bcc_axis_offset, Lattice, LatticeKind};
 use crate::mesh::Mesh;
 use crate::tf::TransferFunction;
 
@@ -255,7 +255,7 @@ impl Sort for LatticeSort {
                 let mut e = Vec::with_capacity(12);
                 for axis in 0..3 {
                     for sub in 0..4 {
-                        if let Some(t) = crate::lattice::bcc_tet_index(n, [0; 3], axis, sub) {
+                        if let Some(t) = crate::bcc::lattice::bcc_tet_index(n, [0; 3], axis, sub) {
                             e.push(Entry {
                                 axis,
                                 sub,
@@ -526,7 +526,7 @@ fn build_skip(l: &Lattice, steps: [usize; 3], visible: &[bool]) -> Skip {
                             let lo = [i, j, k];
                             let mut hi = lo;
                             hi[a] += 1;
-                            let t0 = crate::lattice::bcc_tet_index(n, lo, a, 0).expect("edge");
+                            let t0 = crate::bcc::lattice::bcc_tet_index(n, lo, a, 0).expect("edge");
                             for u in 0..4 {
                                 if visible[t0 + u] {
                                     let id = |p: [usize; 3]| p[0] + n[0] * (p[1] + n[1] * p[2]);

@@ -28,6 +28,8 @@ use crate::mesh::{Mesh, BOUNDARY};
 use crate::plugin::{did_you_mean, ParamInfo};
 use crate::tf::TransferFunction;
 
+pub mod gpu;
+
 pub use bucket::BucketSort;
 pub use centroid::CentroidSort;
 pub use lattice::LatticeSort;

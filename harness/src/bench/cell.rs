@@ -9,7 +9,7 @@ use algorithms::camera::{Camera, Projection};
 use algorithms::image::Image;
 use algorithms::mesh::Aabb;
 use algorithms::render::{self, Renderer};
-use algorithms::{alloc, metrics, Error, Mesh, Result, TransferFunction};
+use algorithms::{metrics, util::alloc, Error, Mesh, Result, TransferFunction};
 
 use crate::experiment::{Experiment, Variant, ViewItem};
 use crate::measure::{self, Frames};

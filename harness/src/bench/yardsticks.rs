@@ -10,9 +10,9 @@
 
 use std::collections::BTreeMap;
 
-use algorithms::bcc_recon::{self, BccDomain, Sampling};
+use algorithms::bcc::lattice::LatticeKind;
+use algorithms::bcc::recon::{self, BccDomain, Sampling};
 use algorithms::glam::DVec3;
-use algorithms::lattice::LatticeKind;
 use algorithms::mesh::Aabb;
 use algorithms::optics::integrator;
 
@@ -152,7 +152,7 @@ fn analytic(
             let lat = mesh
                 .field_data
                 .get(datasets_gen::LATTICE_KEY)
-                .and_then(|v| algorithms::lattice::Lattice::from_field_data(v))
+                .and_then(|v| algorithms::bcc::lattice::Lattice::from_field_data(v))
                 .ok_or_else(|| Error::Internal("a lattice dataset without its lattice".into()))?;
             let dom = BccDomain {
                 n: lat.n,
@@ -162,7 +162,7 @@ fn analytic(
             Box::new(move |p| dom.contains(p))
         }
     };
-    bcc_recon::ground_truth(&l.field.f, &*inside, &bbox, cam, sampling)
+    recon::ground_truth(&l.field.f, &*inside, &bbox, cam, sampling)
 }
 
 /// The yardstick images of one dataset: for every variant in `need` (index into the

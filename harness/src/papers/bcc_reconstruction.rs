@@ -6,7 +6,7 @@
 
 use std::path::{Path, PathBuf};
 
-use algorithms::bcc_recon::Scheme;
+use algorithms::bcc::recon::Scheme;
 use algorithms::Result;
 
 use super::bcc::{dense_tf, error_cells, label, sizes, views_note, ERROR_COLUMNS};
@@ -215,7 +215,7 @@ fn recon_plots(o: &Outcome, dir: &Path) -> Result<Vec<PathBuf>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use algorithms::bcc_recon::{self, Sampling};
+    use algorithms::bcc::recon::{self, Sampling};
     use algorithms::camera::{Camera, Projection, View};
     use algorithms::glam::DVec3;
     use algorithms::mesh::Aabb;
@@ -234,7 +234,7 @@ mod tests {
         let exact = integrator("exact", &t).unwrap();
         let c = Camera::new(&bbox, View::new(30.0, 20.0), Projection::Ortho, 32, 32);
         let gt = |step: f64| {
-            bcc_recon::ground_truth(
+            recon::ground_truth(
                 &datasets_gen::fields::marschner_lobb,
                 &|_| true,
                 &bbox,

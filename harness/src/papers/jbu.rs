@@ -1,7 +1,7 @@
 //! The JBU paper (Callahan & Silva): Fig. 3/4 (time per rendering resolution) and Fig. 5 (RMSE
 //! of bilateral against linear and nearest upsampling), on the paper's protocol: each dataset
 //! from the 14 cube views (the 8 corners and 6 faces of a cube around it,
-//! `algorithms::jbu::cube_views`) at the full size, and at three lower sizes upsampled to it.
+//! `algorithms::render::jbu::cube_views`) at the full size, and at three lower sizes upsampled to it.
 //!
 //! The experiment: for each renderer R of the projected-tetrahedra and ray-casting families
 //! (GPU ones only on a real GPU; the exact `reference` is the yardstick of the other tables,
@@ -19,7 +19,7 @@
 use std::path::{Path, PathBuf};
 
 use algorithms::camera::View;
-use algorithms::jbu::{cube_views, Method, Params};
+use algorithms::render::jbu::{cube_views, Method, Params};
 use algorithms::render::{self, jbu::LowSize, Family};
 use algorithms::Result;
 

@@ -4,7 +4,7 @@
 use rayon::prelude::*;
 
 use super::project::TileRect;
-use crate::schedule::heaviest_first;
+use crate::util::schedule::heaviest_first;
 
 /// The tets of every tile in visibility order, in one array (a counting sort of the
 /// (tet, tile) pairs by tile, stable in the order): tile k's tets are

@@ -2,7 +2,7 @@
 //! queue order.
 
 use super::TILE;
-use crate::optics_f32::BATCH;
+use crate::optics::fast::BATCH;
 
 /// Pixels of a tile's buffer.
 const PIXELS: usize = (TILE * TILE) as usize;
@@ -151,7 +151,7 @@ mod tests {
     /// that the order counts), neighbours on one pixel included.
     #[test]
     fn composite_is_the_scalar_over() {
-        let mut rng = crate::pt::tests::Rng::new(11);
+        let mut rng = crate::util::rng::Rng::new(11);
         let mut rnd = || rng.f() as f32;
         for n in [0, 1, 3, 4, 5, 8, 9, 15, 16, 23, BATCH - 1, BATCH] {
             for spread in [7, 300] {

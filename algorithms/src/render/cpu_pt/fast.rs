@@ -21,7 +21,7 @@
 //!   each centre is tested against the fan and silhouette edges and takes its triangle's plane,
 //!   as the per-pixel kernel does (the same fragments; values to f32 rounding of the spans'),
 //!   and a box with no centre in the tet's hull is skipped first
-//!   ([`hull_misses_centres_in`](crate::pt::hull_misses_centres_in));
+//!   ([`hull_misses_centres_in`](crate::render::pt::hull_misses_centres_in));
 //! - **batched shading** ([`Queue`]): fragments are queued, a batch is shaded at once and then
 //!   composited in queue order, which is the order a per-fragment loop would composite in, so
 //!   the image is the same; `partial` queues colours, taken from the tet's line of the transfer
@@ -33,9 +33,9 @@
 
 use super::queue::{Lanes, Queue};
 use super::TILE;
-use crate::render::prefetch;
-use crate::optics_f32::{FastIntegrator, TfSpan};
-use crate::pt::{
+use crate::util::prefetch;
+use crate::optics::fast::{FastIntegrator, TfSpan};
+use crate::render::pt::{
     fan_bits, hull_misses_centres_in, pixel_box_i32, wedge, Case, Fit, SmallTet, TetRaster, MAX_FAN, TABLE,
 };
 

@@ -8,8 +8,8 @@ use super::project::{TetProj, VertProj};
 use super::TILE;
 use crate::camera::Camera;
 use crate::optics::Integrator;
-use crate::optics_f32::FastIntegrator;
-use crate::pt::{fan_segment, raster_fan, FaceVertex, FanGeometry};
+use crate::optics::fast::FastIntegrator;
+use crate::render::pt::{fan_segment, raster_fan, FaceVertex, FanGeometry};
 
 /// Per-fragment integration: premultiplied `[r, g, b, α]` of a segment.
 pub(super) trait Shade: Sync {
@@ -137,7 +137,7 @@ impl<S: Shade> DrawCtx<'_, S> {
             }
         }
         // The unsnapped projection: the segment comes from the two faces over each fan
-        // triangle there (crate::pt::faces), the snapped interpolation is the fallback for a
+        // triangle there (crate::render::pt::faces), the snapped interpolation is the fallback for a
         // centre outside a true face or a face edge-on in f64.
         let fv: [FaceVertex; 4] = std::array::from_fn(|k| {
             let v = tet[k] as usize;

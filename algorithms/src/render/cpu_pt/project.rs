@@ -1,5 +1,5 @@
 //! `cpu-pt`'s project stage: every vertex to snapped pixel coordinates and depth, every tet
-//! classified by the ternary truth table of [`crate::pt`] and given its tile range; for the fast
+//! classified by the ternary truth table of [`crate::render::pt`] and given its tile range; for the fast
 //! path, the tet's [`FastRec`] written at its place in the visibility order.
 
 use glam::DVec3;
@@ -7,10 +7,10 @@ use rayon::prelude::*;
 
 use super::fast::FastRec;
 use super::{Prepared, Scratch, TILE};
-use crate::render::prefetch;
+use crate::util::prefetch;
 use crate::camera::{Camera, Projection};
 use crate::mesh::Mesh;
-use crate::pt::{
+use crate::render::pt::{
     classify, classify_ortho, pixel_box, snap, table_index, tests, FanGeometry, ProjVertex,
     Thick, TABLE,
 };

@@ -12,7 +12,7 @@
 
 use super::composite::composite;
 use crate::optics::PsiTable;
-use crate::optics_f32::{
+use crate::optics::fast::{
     shade_colours, ColourBatch, FastIntegrator, ShadeBatch, TfSpan, TfTable, BATCH,
 };
 

@@ -348,7 +348,7 @@ mod tests {
     fn coverage_is_the_box_test() {
         // Rows of 157 pixels: a box spans up to four words of a row, and rows start mid-word.
         let (w, h) = (157usize, 23usize);
-        let mut rng = crate::pt::tests::Rng::new(5);
+        let mut rng = crate::util::rng::Rng::new(5);
         let mut next = || rng.f() as f32;
         for round in 0..300 {
             let boxes: Vec<Item> = (0..1 + round % 4)

@@ -32,7 +32,7 @@ use crate::error::{Error, Result};
 use crate::image::Image;
 use crate::mesh::{signed_volume6, Mesh, BOUNDARY};
 use crate::optics::INTEGRATORS;
-use crate::schedule::heaviest_first;
+use crate::util::schedule::heaviest_first;
 use crate::tf::TransferFunction;
 use bvh::Bvh;
 use predicate::{DirTerms, RayCtx};

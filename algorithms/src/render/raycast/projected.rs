@@ -48,7 +48,7 @@ use super::shade::{Queue, Shade, QUEUE};
 use super::{Prepared, RayStats, Vert, TERMINATE_T};
 use crate::mesh::{BOUNDARY, FACE_VERTS};
 use crate::optics::{composite_under, Segment};
-use crate::render::prefetch;
+use crate::util::prefetch;
 
 /// The unit roundoff, 2⁻⁵³.
 const U: f64 = f64::EPSILON / 2.0;

@@ -9,7 +9,7 @@
 //! rounding (~1e-7) is far below `partial`'s own error against `exact` (~1e-4 RMSE).
 
 use crate::optics::{Exact, Integrator, Partial, Segment};
-use crate::optics_f32::{colour_lanes_n, segment_from_colours, TAU_MAX};
+use crate::optics::fast::{colour_lanes_n, segment_from_colours, TAU_MAX};
 use crate::tf::TransferFunction;
 
 /// A per-segment integrator as the walk calls it.
@@ -477,7 +477,7 @@ mod tests {
     #[test]
     fn tf_colours_are_the_tf_value_by_value() {
         let stepped = stepped_tf();
-        let mut rng = crate::pt::tests::Rng::new(17);
+        let mut rng = crate::util::rng::Rng::new(17);
         let mut next = || rng.f();
         let odd = [f64::NAN, f64::INFINITY, -f64::INFINITY, 0.0, 0.3, 0.7, 1.0];
         for tf in [TransferFunction::preset("default").unwrap(), stepped] {

@@ -2,7 +2,7 @@
 //! and from each consecutive pair of them the precedence "the farther cell first" (the image-space
 //! exterior ordering of Cook, Max, Silva & Williams 2004, after Silva, Mitchell & Williams 1998).
 //!
-//! **Coverage** is decided exactly as `cpu-pt` decides it (see `crate::pt`): the boundary
+//! **Coverage** is decided exactly as `cpu-pt` decides it (see `render::pt`): the boundary
 //! vertices are the renderer's centred f32 positions, projected by the camera and snapped to
 //! 1/4096 pixel; a pixel centre is inside a face when every integer edge function of the face's
 //! snapped triangle is positive, and a centre exactly on an edge goes to the side that contains
@@ -35,7 +35,7 @@ use rayon::prelude::*;
 
 use crate::camera::{Camera, Projection};
 use crate::error::{Error, Result};
-use crate::pt::{pixel_centre, snap, SUBPIXEL};
+use crate::camera::{pixel_centre, snap, SUBPIXEL};
 
 /// Most boundary fragments (an upper bound: Σ of the faces' clipped pixel boxes) a frame may
 /// rasterise; a larger image is refused with an error naming its size.

@@ -368,8 +368,9 @@ fn hull_misses_centres_v3(v3: pulp::x86::V3, q: &[[i32; 2]; 4], bx: [i64; 4]) ->
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::pt::tests::{assert_same_fragments, fan_points, Rng};
-    use crate::pt::{classify, raster_fan, FanGeometry, ProjVertex, SUBPIXEL};
+    use crate::render::pt::tests::{assert_same_fragments, fan_points};
+    use crate::render::pt::{classify, raster_fan, FanGeometry, ProjVertex, SUBPIXEL};
+    use crate::util::rng::Rng;
 
     /// The same centres, triangles and weights as the per-triangle rasteriser, on the fans of
     /// `tet_rasteriser_matches_per_pixel_rasteriser` shrunk to a few pixels (lattice, random,
@@ -459,7 +460,7 @@ mod tests {
                 _ => few_pixel_fan(&mut rng, it / 4),
             };
             // The tet's pixel box, and a part of it (as a tile's clip leaves of it).
-            let whole = crate::pt::pixel_box(&q);
+            let whole = crate::render::pt::pixel_box(&q);
             let (w, h) = (whole[2] - whole[0] + 1, whole[3] - whole[1] + 1);
             let part = [0, 1, 2, 3].map(|k| whole[k] + [1, 1, -1, -1][k] * rng.int(2));
             for bx in [whole, part] {

@@ -139,8 +139,8 @@ mod tests {
     use super::*;
     use crate::camera::{Camera, Projection, View};
     use crate::mesh::Aabb;
-    use crate::pt::tests::Rng;
-    use crate::pt::{classify, raster_fan, FanGeometry, ProjVertex, TABLE};
+    use crate::render::pt::{classify, raster_fan, FanGeometry, ProjVertex, TABLE};
+    use crate::util::rng::Rng;
     use glam::DVec3;
 
     /// The exact ray–tet segment (t_in, t_out) by clipping the ray against the four faces.

@@ -53,8 +53,10 @@ mod fast;
 mod filter;
 mod range;
 mod raster;
+mod wrapper;
 
 pub use raster::{BoundaryRaster, DepthLayers};
+pub use wrapper::{make, Jbu, LowSize, Spec, JBU, PREFIX};
 
 /// Most depth layers a [`BoundaryRaster`] keeps.
 pub const MAX_LAYERS: usize = 4;
@@ -121,7 +123,7 @@ pub const PARAMS: &[ParamInfo] = &[
     ParamInfo {
         name: "method",
         default: "bilateral",
-        doc: "nearest, linear, bilateral or gauss (see algorithms::jbu)",
+        doc: "nearest, linear, bilateral or gauss (see algorithms::render::jbu)",
     },
     ParamInfo {
         name: "k",

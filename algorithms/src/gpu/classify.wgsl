@@ -1,5 +1,5 @@
-// classify.wgsl — library: the classification of a projected tet (algorithms::pt::classify),
-// read from the generated table PT_TABLE (pt::table_wgsl(), prepended by gpu::shader::compose).
+// classify.wgsl — library: the classification of a projected tet (algorithms::render::pt::classify),
+// read from the generated table PT_TABLE (render::pt::table_wgsl(), the prelude render::pt::wgsl::module composes).
 //
 // WGSL has no i64. The four tests of PTINT Fig. 3 are cross products of differences of snapped
 // coordinates (|q| < 2^30, differences < 2^31, products < 2^62): they are computed EXACTLY here

@@ -1,5 +1,5 @@
 // view.wgsl — library: the camera of CONVENTIONS §2 as a uniform, and the projection of a point
-// of the centred frame (CONVENTIONS §1) to snapped pixel coordinates (algorithms::pt::snap).
+// of the centred frame (CONVENTIONS §1) to snapped pixel coordinates (algorithms::render::pt::snap).
 // Bound at @group(1) @binding(0) by every stage that needs it (Rust: gpu::shader::ViewUniform).
 
 struct View {

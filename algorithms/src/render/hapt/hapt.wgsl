@@ -3,7 +3,7 @@
 // Needs view.wgsl, classify.wgsl, volume.wgsl.
 
 struct HaptParams {
-    // The TF table's grid (optics_f32::TfTable::domain): cell k spans s in
+    // The TF table's grid (optics::fast::TfTable::domain): cell k spans s in
     // [tf_lo + k / tf_scale, tf_lo + (k + 1) / tf_scale], k < tf_cells.
     tf_lo: f32,
     tf_scale: f32,
@@ -43,7 +43,7 @@ struct HaptVarying {
 // Whether τ ≡ 0 on the TF cells that s in [s0, s1] touches (HAPT §3: early discard of tets
 // that contribute nothing). Exact for the integrators' tables: τ is interpolated between the
 // samples of these cells only, and the CPU marks a cell empty only if the transfer function's
-// τ is 0 on the whole cell (render/hapt.rs, `empty_cells`).
+// τ is 0 on the whole cell (render/hapt/mod.rs, `empty_cells`).
 fn hapt_tau_zero(s0: f32, s1: f32) -> bool {
     let hi = f32(hp.tf_cells);
     let x0 = clamp((s0 - hp.tf_lo) * hp.tf_scale, 0.0, hi);

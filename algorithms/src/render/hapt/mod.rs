@@ -2,12 +2,12 @@
 //! EuroVis 2010, §3), on wgpu.
 //!
 //! **Per frame** (resident mode): the centroid keys are computed and sorted on the GPU
-//! ([`crate::gpu::sort`]: `gpu-radix` by default, or `gpu-bitonic`; any CPU sort is also
+//! ([`crate::sort::gpu`]: `gpu-radix` by default, or `gpu-bitonic`; any CPU sort is also
 //! accepted, computed on the CPU and its order uploaded), then ONE instanced draw,
 //! `draw(0..12, 0..n_tets)`: instance i reads the i-th sorted tet index straight from the sort's
 //! buffer (no readback between sort and draw), its tet and four vertices, projects and snaps them
 //! and runs the shared classification (`classify.wgsl`, the table generated from
-//! [`crate::pt::TABLE`]); its 12 vertices are the up-to-4 fan triangles (unused ones degenerate).
+//! [`crate::render::pt::TABLE`]); its 12 vertices are the up-to-4 fan triangles (unused ones degenerate).
 //! The fragment stage (`volume.frag.wgsl`) integrates the pixel's ray segment with the chosen
 //! integrator (`average`, `partial`, `preint`; the same tables as `cpu-pt`'s f32 path) and blends
 //! it "over" into the float target. Then the target is read back.
@@ -50,12 +50,13 @@ use super::{ms_since, Family, Frame, FrameTimes, RenderOptions, Renderer, Render
 use crate::plugin::ParamInfo;
 use crate::camera::{Camera, Projection};
 use crate::error::{Error, Result};
-use crate::gpu::optics::{OpticsTables, GPU_INTEGRATORS};
+use crate::optics::gpu::{OpticsTables, GPU_INTEGRATORS, OPTICS};
 use crate::gpu::shader::{self, ViewUniform};
-use crate::gpu::sort::{GpuSortKind, GpuSorter, KeyMode};
+use crate::sort::gpu::{GpuSortKind, GpuSorter, KeyMode};
 use crate::gpu::{wgpu, Account, Gpu, Timer};
 use crate::mesh::Mesh;
-use crate::optics_f32::{TfTable, TF_SAMPLES};
+use crate::render::pt;
+use crate::optics::fast::{TfTable, TF_SAMPLES};
 use crate::sort::{self, Sort};
 use crate::tf::{ScalarMap, TransferFunction};
 
@@ -109,14 +110,14 @@ pub static HAPT: RendererInfo = RendererInfo {
 };
 
 /// Library and stage sources of hapt.
-pub const HAPT_LIB: &str = include_str!("../gpu/shaders/hapt.wgsl");
-pub const HAPT_VERT: &str = include_str!("../gpu/shaders/hapt.vert.wgsl");
-pub const HAPT_ISO_FRAG: &str = include_str!("../gpu/shaders/hapt_iso.frag.wgsl");
+pub const HAPT_LIB: &str = include_str!("hapt.wgsl");
+pub const HAPT_VERT: &str = include_str!("hapt.vert.wgsl");
+pub const HAPT_ISO_FRAG: &str = include_str!("hapt_iso.frag.wgsl");
 const VERT_LIBS: &[&str] = &[shader::VIEW, shader::CLASSIFY, shader::VOLUME, HAPT_LIB];
 const ISO_LIBS: &[&str] = &[
     shader::VIEW,
     shader::VOLUME,
-    shader::OPTICS,
+    OPTICS,
     shader::CLASSIFY,
     HAPT_LIB,
 ];
@@ -426,20 +427,20 @@ fn pipeline(
             bind_group_layouts: layouts,
             immediate_size: 0,
         });
-    let vs = shader::module(gpu, "hapt.vert.wgsl", HAPT_VERT, VERT_LIBS)?;
+    let vs = pt::wgsl::module(gpu, "hapt.vert.wgsl", HAPT_VERT, VERT_LIBS)?;
     let (fs, fs_entry) = if mode == Mode::Dvr {
         (
-            shader::module(
+            pt::wgsl::module(
                 gpu,
                 "volume.frag.wgsl",
                 shader::VOLUME_FRAG,
-                shader::VOLUME_FRAG_LIBS,
+                pt::wgsl::VOLUME_FRAG_LIBS,
             )?,
             "fs_volume",
         )
     } else {
         (
-            shader::module(gpu, "hapt_iso.frag.wgsl", HAPT_ISO_FRAG, ISO_LIBS)?,
+            pt::wgsl::module(gpu, "hapt_iso.frag.wgsl", HAPT_ISO_FRAG, ISO_LIBS)?,
             "fs_hapt_iso",
         )
     };

@@ -391,9 +391,10 @@ pub fn raster_fan_rows(c: &Case, q: &[[i64; 2]; 4], clip: [i64; 4], mut f: impl 
 
 #[cfg(test)]
 mod tests {
-    use super::super::tests::{fan_points, Rng};
+    use super::super::tests::fan_points;
     use super::super::{classify, ProjVertex, MAX_PIXEL_COORD};
     use super::*;
+    use crate::util::rng::Rng;
 
     /// The table's anchors put every fan edge on the line from the thick vertex through its
     /// vertex, pointing towards it: the thick vertex (classified in f64) lies on the line through

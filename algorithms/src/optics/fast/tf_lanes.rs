@@ -50,7 +50,7 @@ mod tests {
     /// scalars, on and around the samples, at the domain's ends and beyond them, and at ±∞.
     #[test]
     fn tf_eval_lanes_is_eval() {
-        let mut rng = crate::pt::tests::Rng::new(3);
+        let mut rng = crate::util::rng::Rng::new(3);
         let mut rnd = || rng.f() as f32;
         for name in crate::tf::PRESETS {
             let tf = TransferFunction::preset(name).unwrap();

@@ -1,6 +1,6 @@
 //! `jbu:<renderer>@<low size>[,option=value...]`: any registered renderer run at a low
 //! resolution and brought to the requested size by joint bilateral upsampling (see
-//! [`crate::jbu`]).
+//! [`crate::render::jbu`]).
 //!
 //! Name syntax:
 //! - `<renderer>`: a registered renderer (`raycast`, `cpu-pt`, ...; not another `jbu:`). Its sort
@@ -9,7 +9,7 @@
 //!   full image's aspect ratio) or `WxH`. It must not exceed the full image; equal to it, the
 //!   inner image is returned unchanged.
 //! - options, comma-separated after the size: `method`, `k`, `sigma`, `c`, `r`, with their
-//!   defaults and meaning in [`crate::jbu::PARAMS`] (what `tetbench list` prints).
+//!   defaults and meaning in [`crate::render::jbu::PARAMS`] (what `tetbench list` prints).
 //!
 //! Examples: `jbu:raycast@128`, `jbu:cpu-pt@256x256`, `jbu:raycast@128,method=linear`,
 //! `jbu:raycast@256,k=4,sigma=0.02`.
@@ -20,15 +20,17 @@
 
 use std::time::Instant;
 
-use super::{ms_since, Family, Frame, FrameTimes, RenderOptions, Renderer, RendererInfo};
+use super::{low_camera, Params, Upsampler};
 use crate::camera::Camera;
 use crate::error::{Error, Result};
-use crate::jbu::{low_camera, Params, Upsampler};
 use crate::mesh::Mesh;
+use crate::render::{
+    ms_since, Family, Frame, FrameTimes, RenderOptions, Renderer, RendererInfo,
+};
 use crate::tf::TransferFunction;
 
 /// Registry line describing the pattern (for `tetbench list`); a real wrapper is made from a
-/// full name by [`super::make`].
+/// full name by [`crate::render::make`].
 pub static JBU: RendererInfo = RendererInfo {
     name: "jbu:<renderer>@<size>",
     description: "joint bilateral upsampling of <renderer> rendered at <size> (N or WxH); \
@@ -41,7 +43,7 @@ pub static JBU: RendererInfo = RendererInfo {
     table_sorts: &[],
     default_integrator: "as <renderer>",
     // Given in the name (`jbu:raycast@128,k=2`); `--param` keys go to the inner renderer.
-    params: crate::jbu::PARAMS,
+    params: super::PARAMS,
     make: |_| {
         Err(Error::Input(
             "jbu: give the inner renderer and low size, e.g. jbu:raycast@128".into(),
@@ -129,7 +131,7 @@ impl Spec {
             params.set(k, v).map_err(|e| bad(e.to_string()))?;
         }
         params.check().map_err(|e| bad(e.to_string()))?;
-        super::info(inner).map_err(|e| Error::Input(format!("renderer '{name}': {e}")))?;
+        crate::render::info(inner).map_err(|e| Error::Input(format!("renderer '{name}': {e}")))?;
         Ok(Spec {
             inner: inner.to_string(),
             low,
@@ -141,7 +143,7 @@ impl Spec {
 /// Makes the wrapper from a full `jbu:` name (checks the options against the inner renderer).
 pub fn make(name: &str, opts: &RenderOptions) -> Result<Box<dyn Renderer>> {
     let spec = Spec::parse(name)?;
-    let inner = super::make(&spec.inner, opts)?;
+    let inner = crate::render::make(&spec.inner, opts)?;
     Ok(Box::new(Jbu::new(name, spec, inner)?))
 }
 

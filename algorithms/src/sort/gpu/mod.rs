@@ -22,8 +22,8 @@
 //! two, one dispatch per compare-exchange step; pairs compare by key then index, so the order is
 //! the same.
 
-use super::{Account, Gpu};
 use crate::error::{Error, Result};
+use crate::gpu::{Account, Gpu};
 
 /// Which GPU sort.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -52,7 +52,7 @@ const WG: u32 = 256;
 const BLOCK: u32 = 1024;
 const MAX_X: u32 = 65535;
 
-const COMMON: &str = include_str!("shaders/sort_common.wgsl");
+const COMMON: &str = include_str!("sort_common.wgsl");
 
 fn module(gpu: &Gpu, label: &str, stage: &str) -> wgpu::ShaderModule {
     let src = format!("{COMMON}\n{stage}");
@@ -157,11 +157,7 @@ impl GpuSorter {
         let keys = acct.buffer(gpu, "sort keys", 4 * len, storage)?;
         let vals = acct.buffer(gpu, "sort values", 4 * len, storage)?;
         let key_params = acct.buffer(gpu, "key params", 32, uniform)?;
-        let key_pipe = pipeline(
-            gpu,
-            "sort_keys",
-            include_str!("shaders/sort_keys.comp.wgsl"),
-        );
+        let key_pipe = pipeline(gpu, "sort_keys", include_str!("sort_keys.comp.wgsl"));
         let key_bind = bind(gpu, &key_pipe, &[&key_params, input, &keys, &vals]);
         let mut steps = Vec::new();
         match kind {
@@ -171,20 +167,12 @@ impl GpuSorter {
                 let vals2 = acct.buffer(gpu, "sort values 2", 4 * len, storage)?;
                 let hist =
                     acct.buffer(gpu, "radix histograms", 4 * 256 * nblocks as u64, storage)?;
-                let hist_p = pipeline(
-                    gpu,
-                    "radix_hist",
-                    include_str!("shaders/radix_hist.comp.wgsl"),
-                );
-                let scan_p = pipeline(
-                    gpu,
-                    "radix_scan",
-                    include_str!("shaders/radix_scan.comp.wgsl"),
-                );
+                let hist_p = pipeline(gpu, "radix_hist", include_str!("radix_hist.comp.wgsl"));
+                let scan_p = pipeline(gpu, "radix_scan", include_str!("radix_scan.comp.wgsl"));
                 let scat_p = pipeline(
                     gpu,
                     "radix_scatter",
-                    include_str!("shaders/radix_scatter.comp.wgsl"),
+                    include_str!("radix_scatter.comp.wgsl"),
                 );
                 for pass in 0..4u32 {
                     let params = acct.buffer(gpu, "radix params", 16, uniform)?;
@@ -225,7 +213,7 @@ impl GpuSorter {
                     gpu.queue
                         .write_buffer(&vals, at, bytemuck::cast_slice(&pad));
                 }
-                let p = pipeline(gpu, "bitonic", include_str!("shaders/bitonic.comp.wgsl"));
+                let p = pipeline(gpu, "bitonic", include_str!("bitonic.comp.wgsl"));
                 let groups = grid((len as u32).div_ceil(WG));
                 let mut k = 2u32;
                 while k as u64 <= len {

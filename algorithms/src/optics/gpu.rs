@@ -4,11 +4,18 @@
 //! ports [`FastIntegrator::segment`] line by line; the test below compares them.
 
 use crate::error::{Error, Result};
+use crate::optics::fast::FastIntegrator;
 use crate::optics::PreintTable;
-use crate::optics_f32::FastIntegrator;
 use crate::tf::TransferFunction;
 
-use super::{shader, Account, Gpu};
+use crate::gpu::{shader, Account, Gpu};
+
+/// Library: `segment(s_f, s_b, l)` for `average`, `partial`, `preint` (port of
+/// [`FastIntegrator::segment`]).
+pub const OPTICS: &str = include_str!("optics.wgsl");
+/// Test-only compute stage evaluating `segment` on a list of triples.
+#[cfg(test)]
+const OPTICS_TEST_COMP: &str = include_str!("optics_test.comp.wgsl");
 
 /// The integrators the GPU renderers take (`exact` stays on the CPU: it is the ground truth).
 pub const GPU_INTEGRATORS: [&str; 3] = [
@@ -271,8 +278,9 @@ mod tests {
         let m = shader::module(
             gpu,
             "optics_test.comp.wgsl",
-            shader::OPTICS_TEST_COMP,
-            &[shader::OPTICS],
+            "",
+            OPTICS_TEST_COMP,
+            &[OPTICS],
         )
         .unwrap();
         let pipe = gpu

@@ -35,13 +35,32 @@ use std::time::Instant;
 use super::{ms_since, Family, Frame, FrameTimes, Renderer, RendererInfo};
 use crate::camera::Camera;
 use crate::error::{Error, Result};
-use crate::gpu::optics::{OpticsTables, GPU_INTEGRATORS};
+use crate::optics::gpu::{OpticsTables, GPU_INTEGRATORS};
 use crate::gpu::shader::{self, ViewUniform};
 use crate::gpu::{Account, Gpu, Timer};
 use crate::mesh::Mesh;
-use crate::pt::TABLE;
+use crate::render::pt::{self, TABLE};
 use crate::sort::{Sort, SortStats};
 use crate::tf::TransferFunction;
+
+/// Library: element types of `ptint`'s buffers.
+pub const PTINT_LIB: &str = include_str!("ptint.wgsl");
+/// Pass 1a: project every vertex.
+pub const PTINT_PROJECT_COMP: &str = include_str!("ptint_project.comp.wgsl");
+/// Pass 1b: classify every tet, write its record and its sort key.
+pub const PTINT_CLASSIFY_COMP: &str = include_str!("ptint_classify.comp.wgsl");
+/// Pass 2: vertex stage pulling the fan of each sorted tet.
+pub const PTINT_FAN_VERT: &str = include_str!("ptint_fan.vert.wgsl");
+/// The libraries of the project stage.
+const PROJECT_LIBS: &[&str] = &[shader::VIEW, PTINT_LIB];
+/// The libraries of the classify and fan stages.
+const PTINT_LIBS: &[&str] = &[shader::VIEW, shader::CLASSIFY, shader::VOLUME, PTINT_LIB];
+/// Every stage of its own with the libraries it is composed with (for the compile test).
+pub const STAGES: &[(&str, &str, &[&str])] = &[
+    ("ptint_project.comp.wgsl", PTINT_PROJECT_COMP, PROJECT_LIBS),
+    ("ptint_classify.comp.wgsl", PTINT_CLASSIFY_COMP, PTINT_LIBS),
+    ("ptint_fan.vert.wgsl", PTINT_FAN_VERT, PTINT_LIBS),
+];
 
 /// Registry entry for `ptint` (`partial` and `centroid` by default).
 pub static PTINT: RendererInfo = RendererInfo {
@@ -151,7 +170,7 @@ fn compute_pipeline(
     entry: &str,
     layouts: &[Option<&wgpu::BindGroupLayout>],
 ) -> Result<wgpu::ComputePipeline> {
-    let m = shader::module(gpu, name, src, libs)?;
+    let m = pt::wgsl::module(gpu, name, src, libs)?;
     let layout = gpu
         .device
         .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -257,30 +276,30 @@ impl State {
         let project = compute_pipeline(
             &gpu,
             "ptint_project.comp.wgsl",
-            shader::PTINT_PROJECT_COMP,
-            &[shader::VIEW, shader::PTINT],
+            PTINT_PROJECT_COMP,
+            PROJECT_LIBS,
             "cs_project",
             &[None, Some(&view_layout), Some(&project_layout)],
         )?;
         let classify = compute_pipeline(
             &gpu,
             "ptint_classify.comp.wgsl",
-            shader::PTINT_CLASSIFY_COMP,
-            shader::PTINT_LIBS,
+            PTINT_CLASSIFY_COMP,
+            PTINT_LIBS,
             "cs_classify",
             &[None, Some(&view_layout), Some(&classify_layout)],
         )?;
-        let vs = shader::module(
+        let vs = pt::wgsl::module(
             &gpu,
             "ptint_fan.vert.wgsl",
-            shader::PTINT_FAN_VERT,
-            shader::PTINT_LIBS,
+            PTINT_FAN_VERT,
+            PTINT_LIBS,
         )?;
-        let fs = shader::module(
+        let fs = pt::wgsl::module(
             &gpu,
             "volume.frag.wgsl",
             shader::VOLUME_FRAG,
-            shader::VOLUME_FRAG_LIBS,
+            pt::wgsl::VOLUME_FRAG_LIBS,
         )?;
         let draw_pl = gpu
             .device

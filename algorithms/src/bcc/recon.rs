@@ -1,5 +1,5 @@
 //! Ray casting regular CC and BCC volumes with the BCC paper's reconstruction schemes (§3), and
-//! the analytic ground truth both are measured against (issue 9).
+//! the analytic ground truth both are measured against.
 //!
 //! **Volumes.** [`CcVolume`]: samples at `o + h·(i, j, k)`. [`BccVolume`]: the primary grid
 //! `o + h·(i, j, k)` (`i < n`) and the secondary grid `o + h·(i − ½, j − ½, k − ½)` (`i ≤ n`),

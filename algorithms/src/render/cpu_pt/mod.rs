@@ -3,7 +3,7 @@
 //!
 //! Per frame:
 //! 1. **project** — every vertex to snapped pixel coordinates and depth; every tet classified by
-//!    the ternary truth table of [`crate::pt`] (thick vertex, `s_f`, `s_b`, `l`, fan);
+//!    the ternary truth table of [`crate::render::pt`] (thick vertex, `s_f`, `s_b`, `l`, fan);
 //! 2. **sort** — the visibility order, back to front (farthest first);
 //! 3. **draw** — the drawn tets are binned to 128×128-pixel tiles in sorted order; tiles are
 //!    rendered in parallel (rayon), each compositing its tets in that order into its own f32
@@ -32,7 +32,7 @@
 //! `sec θ = |ray| / (ray · f)` per pixel. So perspective is exact too, up to rounding.
 //! That is exact for the snapped vertices; the f64 path (`exact`, and perspective) takes each
 //! fragment's segment from the two faces over its fan triangle on the unsnapped projection
-//! instead ([`crate::pt::fan_segment`]), exact for the true tet even where a face is nearly
+//! instead ([`crate::render::pt::fan_segment`]), exact for the true tet even where a face is nearly
 //! edge-on and the snapping error, times the thickness gradient, would be ~1 % of `l`.
 //!
 //! **Memory.** `prepare` keeps the centred f32 positions and the f32 transfer-function
@@ -63,8 +63,8 @@ use crate::error::{Error, Result};
 use crate::image::Image;
 use crate::mesh::Mesh;
 use crate::optics::{integrator, Integrator, INTEGRATORS};
-use crate::optics_f32::FastIntegrator;
-use crate::pt::TABLE;
+use crate::optics::fast::FastIntegrator;
+use crate::render::pt::TABLE;
 use crate::sort::{Sort, SortStats};
 use crate::tf::TransferFunction;
 
@@ -180,7 +180,7 @@ impl CpuPt {
         })
     }
 
-    /// Whether per-fragment integration uses the f32 fast path of [`crate::optics_f32`]
+    /// Whether per-fragment integration uses the f32 fast path of [`crate::optics::fast`]
     /// (`average`, `partial`, `preint`; default) or the f64 [`Integrator`] (`exact` always does).
     /// Takes effect at the next `prepare`.
     pub fn set_fast_path(&mut self, on: bool) {

@@ -1,6 +1,6 @@
 // optics.wgsl — library: the per-segment integrators of CONVENTIONS §4 on the GPU, an exact
-// port of the f32 fast paths of algorithms::optics_f32 (FastIntegrator::segment) reading the
-// same tables, uploaded by gpu::optics::OpticsTables at @group(0):
+// port of the f32 fast paths of algorithms::optics::fast (FastIntegrator::segment) reading the
+// same tables, uploaded by optics::gpu::OpticsTables at @group(0):
 //   binding 0: OpticsParams (uniform)
 //   binding 1: the transfer function, TfTable::data(), [r, g, b, τ] per sample
 //   binding 2: Ψ, PsiTable::data(), n × n f32 (partial)
@@ -32,7 +32,7 @@ fn optics_finite(x: f32) -> bool {
     return (bitcast<u32>(x) & 0x7f800000u) != 0x7f800000u;
 }
 
-// optics_f32::exp_neg: exp(−x) for x ≥ 0 as 2^y, y = −x·log2 e = n + f, f ∈ [−0.5, 0.5], by
+// optics::fast::exp_neg: exp(−x) for x ≥ 0 as 2^y, y = −x·log2 e = n + f, f ∈ [−0.5, 0.5], by
 // the Cephes exp2f polynomial (relative error ≤ 2e-6 for x ≤ 20).
 fn exp_neg(x: f32) -> f32 {
     let y = max(-x * 1.4426950408889634, -126.0);
@@ -68,7 +68,7 @@ fn tf_eval(s: f32) -> vec4<f32> {
     return a + (b - a) * t;
 }
 
-// optics_f32::psi_lookup: bilinear Ψ at the end depths fa, fb ≥ 0, indexed by γ = x/(1 + x)
+// optics::fast::psi_lookup: bilinear Ψ at the end depths fa, fb ≥ 0, indexed by γ = x/(1 + x)
 // (CONVENTIONS §4, partial).
 fn psi_lookup(fa: f32, fb: f32) -> f32 {
     let n = optics.psi_n;
@@ -86,7 +86,7 @@ fn psi_lookup(fa: f32, fb: f32) -> f32 {
     return v0 + (v1 - v0) * tj;
 }
 
-// optics_f32::preint_lookup: trilinear in (s_f, s_b, l coordinate), l on the log axis
+// optics::fast::preint_lookup: trilinear in (s_f, s_b, l coordinate), l on the log axis
 // ln(1 + l/L0) / ln(1 + L_MAX/L0); α from the tabled mean extinction.
 fn preint_lookup(sf: f32, sb: f32, l: f32) -> vec4<f32> {
     let ns = optics.pre_ns;

@@ -509,11 +509,11 @@ const EXP_END: f32 = 24.0;
 /// |f·p| < 2^−25; 2^−26 leaves a factor 2; `exp_neg_is_one_below_exp_one` checks it).
 pub(super) const EXP_ONE: f32 = 1.0 / (1u32 << 26) as f32;
 
-/// e^−x for x ≥ 0 by [`crate::optics_f32::exp_neg`] (branch-free, relative error ≤ 2e-6, so
+/// e^−x for x ≥ 0 by [`crate::optics::fast::exp_neg`] (branch-free, relative error ≤ 2e-6, so
 /// the four weights of a pixel are computed as one vector), 0 for x ≥ [`EXP_END`] and for NaN.
 #[inline(always)]
 pub(super) fn exp_neg(x: f32) -> f32 {
-    let e = crate::optics_f32::exp_neg(x.max(0.0));
+    let e = crate::optics::fast::exp_neg(x.max(0.0));
     if x < EXP_END {
         e
     } else {

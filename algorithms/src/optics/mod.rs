@@ -24,6 +24,9 @@ use rayon::prelude::*;
 use crate::error::{Error, Result};
 use crate::tf::TransferFunction;
 
+pub mod fast;
+pub mod gpu;
+
 /// Premultiplied colour and opacity of one ray segment.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Segment {

@@ -26,6 +26,7 @@ fn frame(
             .iter()
             .map(|(k, v)| (k.to_string(), v.to_string()))
             .collect(),
+        ..Default::default()
     };
     let mut r = render::make(renderer, &opts).unwrap();
     r.prepare(mesh, tf).unwrap();
@@ -275,6 +276,7 @@ fn time_varying_frames_equal_renders_of_each_step() {
         sort: Some("centroid-radix".into()),
         integrator: Some("partial".into()),
         params: vec![("timevarying".into(), "1".into())],
+        ..Default::default()
     };
     let mut r = render::make("hapt", &opts).unwrap();
     r.prepare(&mesh, &tf).unwrap();

@@ -17,7 +17,7 @@ pub static CPU_PT_SLAB16: RendererInfo = RendererInfo {
     table_sorts: &[],
     default_integrator: "partial",
     params: &[],
-    make: |o| {
+    make: |_, o| {
         let integrator = o.integrator.as_deref().unwrap_or("partial");
         Ok(Box::new(
             CpuPt::new("bucket:16", integrator)?.named("cpu-pt-slab16"),

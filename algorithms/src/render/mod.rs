@@ -1,9 +1,12 @@
 //! The renderer plug-in interface and the one registry of renderers by name.
 //!
 //! A renderer is one module behind the [`Renderer`] trait; it is made known by one line in
-//! [`REGISTRY`]. Everything else — the CLI, experiments, the JBU wrapper — looks renderers up
-//! here by name (after pbrt-v4's and Mitsuba's plugin registries).
+//! [`REGISTRY`]. Peers — renderers that are other programs (`docs/peers.md`) — join it at run
+//! time from their `[[peer]]` declarations, once, through [`peer::register`]. Everything else —
+//! the CLI, experiments, the JBU wrapper — looks renderers up here by name (after pbrt-v4's and
+//! Mitsuba's plugin registries): [`all`], [`info`], [`make`].
 
+use std::path::PathBuf;
 use std::time::Instant;
 
 use crate::camera::Camera;
@@ -23,6 +26,9 @@ pub struct RenderOptions {
     /// Renderer-specific parameters, `KEY=VALUE` (`--param` on the command line, `params` in an
     /// experiment file); a renderer refuses keys it does not know.
     pub params: Vec<(String, String)>,
+    /// Where a renderer that runs another program (a peer) saves that program's log (its
+    /// stderr), as `DIR/<renderer>.log`; `None`: kept only for error messages.
+    pub log_dir: Option<PathBuf>,
 }
 
 /// Time of one frame split by stage (CONVENTIONS §7), in milliseconds. Stages an algorithm does
@@ -73,7 +79,7 @@ pub trait Renderer: Send {
     fn device(&self) -> String {
         "cpu".to_string()
     }
-    /// For a renderer that runs in a helper process (family "external"): the bytes that
+    /// For a renderer that runs in another process (family "external", a peer): the bytes that
     /// process holds, its peak resident set. The harness reports these as the renderer's CPU
     /// bytes instead of the heap bytes it counted in this process.
     fn external_bytes(&self) -> Option<u64> {
@@ -90,7 +96,8 @@ pub enum Family {
     RayCasting,
     /// Wraps another renderer (`jbu:<renderer>@<size>`).
     Wrapper,
-    /// Runs another program (e.g. VTK's mappers); measured, not part of the papers' families.
+    /// Runs another program over the peer protocol (VTK's mappers, declared peers); the papers'
+    /// tables take such peers by the family they declare ([`peer::PeerFamily`]).
     External,
     /// Ray casts the regular volume a lattice mesh samples (the BCC paper's reconstruction
     /// schemes); lattice meshes only.
@@ -130,8 +137,8 @@ pub struct RendererInfo {
     /// The `--param KEY=VALUE` keys it takes, with their defaults and docs; any other key is
     /// refused before the renderer is made.
     pub params: &'static [ParamInfo],
-    /// Makes it; the options have been checked against this entry.
-    pub make: fn(&RenderOptions) -> Result<Box<dyn Renderer>>,
+    /// Makes it (given its own entry); the options have been checked against this entry.
+    pub make: fn(&RendererInfo, &RenderOptions) -> Result<Box<dyn Renderer>>,
 }
 
 pub mod pt;
@@ -160,15 +167,38 @@ registry! {
     jbu => [JBU],
 }
 
+pub mod peer;
+
 /// Whether `name` is a wrapper (`jbu:...`), not a renderer of its own.
 pub fn is_wrapper(name: &str) -> bool {
     name.starts_with(jbu::PREFIX)
 }
 
-/// Whether `name` runs in a helper process outside tetbench (family "external": the VTK peers,
-/// which need `TETBENCH_VTK_PYTHON`). Sweeps over "every renderer" leave these out unless named.
+/// Whether `name` runs in another program (family "external": the VTK peers, which need
+/// `TETBENCH_VTK_PYTHON`, and declared peers). Sweeps over "every renderer" leave these out
+/// unless named.
 pub fn is_external(name: &str) -> bool {
     info(name).is_ok_and(|i| i.family == Family::External)
+}
+
+/// Every renderer: the built-in ones ([`REGISTRY`]), then the declared peers
+/// ([`peer::register`]), in `tetbench list` order.
+pub fn all() -> Vec<&'static RendererInfo> {
+    REGISTRY
+        .iter()
+        .copied()
+        .chain(peer::registered().iter().map(|r| r.info))
+        .collect()
+}
+
+/// The algorithm family a peer declares (`None` for renderers that are not peers).
+pub fn peer_family(info: &RendererInfo) -> Option<peer::PeerFamily> {
+    if info.family != Family::External {
+        return None;
+    }
+    peer::find(info.name)
+        .map(|r| r.spec.family)
+        .or_else(|| vtk::family(info.name))
 }
 
 /// Looks a renderer up by name. A `jbu:<renderer>@<size>` name is checked and answers with the
@@ -178,30 +208,25 @@ pub fn info(name: &str) -> Result<&'static RendererInfo> {
         let spec = jbu::Spec::parse(name)?;
         return info(&spec.inner);
     }
-    REGISTRY
-        .iter()
-        .copied()
-        .find(|r| r.name == name)
-        .ok_or_else(|| {
-            let names = names();
-            Error::Input(format!(
-                "unknown renderer '{name}' (known: {}){}",
-                names.join(", "),
-                did_you_mean(name, &names)
-            ))
-        })
+    all().into_iter().find(|r| r.name == name).ok_or_else(|| {
+        let names = names();
+        Error::Input(format!(
+            "unknown renderer '{name}' (known: {}){}",
+            names.join(", "),
+            did_you_mean(name, &names)
+        ))
+    })
 }
 
 /// Names of all registered renderers.
 pub fn names() -> Vec<&'static str> {
-    REGISTRY.iter().map(|r| r.name).collect()
+    all().iter().map(|r| r.name).collect()
 }
 
 /// The registered renderers of one family, in registry order (wrappers' pattern entry left out).
 pub fn family(f: Family) -> Vec<&'static RendererInfo> {
-    REGISTRY
-        .iter()
-        .copied()
+    all()
+        .into_iter()
         .filter(|r| r.family == f && !is_wrapper(r.name))
         .collect()
 }
@@ -244,7 +269,7 @@ pub fn make(name: &str, opts: &RenderOptions) -> Result<Box<dyn Renderer>> {
             info.integrators.join(", ")
         )));
     }
-    (info.make)(&opts)
+    (info.make)(info, &opts)
 }
 
 /// Milliseconds since `t`.

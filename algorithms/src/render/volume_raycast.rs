@@ -52,7 +52,7 @@ pub static VOLUME_RAYCAST: RendererInfo = RendererInfo {
     table_sorts: &[],
     default_integrator: "exact",
     params: PARAMS,
-    make: |o| Ok(Box::new(VolumeRaycast::new(o)?)),
+    make: |_, o| Ok(Box::new(VolumeRaycast::new(o)?)),
 };
 
 /// A scheme by its short name, or `auto`.

@@ -1,48 +1,55 @@
-"""tetbench's VTK peer: runs one of VTK's unstructured-grid volume mappers on a scene that
-tetbench hands over, and sends back a float RGBA image with VTK's own frame times.
+"""tetbench's VTK peer: one of VTK's unstructured-grid volume mappers behind the peer protocol,
+written with the Python SDK (tetbench_peer). `vtk_peer.py MAPPER`, MAPPER = pt | raycast |
+zsweep. tetbench (algorithms/src/render/vtk.rs) writes this file and the SDK into the peer's
+private directory and starts it there under TETBENCH_VTK_PYTHON.
 
-Started by algorithms/src/render/vtk.rs as `PYTHON vtk_peer.py DIR` (the Rust side writes this
-file into DIR from the copy compiled into the binary). Protocol: one JSON object per line on
-stdin, one JSON reply per line on the original stdout (VTK's own messages go to stderr). Bulk
-data travels as little-endian raw files in DIR:
-
-  prepare: points.f64 (n x 3, already centred on the bounding box), scalars.f64 (n, the transfer
-           function's s), tets.i64 (m x 4, zero-volume cells already dropped). The message has
-           the mapper, the integrator, the transfer-function nodes (s, rgb, opacity) and the
-           opacity unit distance.
-  render:  the camera in VTK's terms (computed by the Rust side from tetbench's camera), the
-           image size and the image sample distance; the reply's image is image.f32 (H x W x 4,
-           row 0 at the top, premultiplied, as tetbench's images are).
-
-Every reply carries `peak_rss_bytes`, the peak resident set of this process.
+The scene and camera arrive in the contract's terms and are made VTK's here (docs/vtk.md):
+zero-volume cells are dropped (VTK's Bunyk ray caster crashes on them), the transfer function
+becomes a colour and an opacity node at every point with opacity tau / tau_max and unit distance
+L / tau_max, and the ray-cast and ZSweep mappers' camera is widened (and, for the ray caster,
+shifted) so that their ray image is read exactly at tetbench's pixel centres.
 """
 
-import json
-import os
-import resource
+import math
 import sys
 import time
-import traceback
+
+import numpy as np
+
+from tetbench_peer import Frame, Peer, serve
 
 
-def peak_rss_bytes():
-    # ru_maxrss is in KiB on Linux.
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+def rays_across(size, isd):
+    """Rays across `size` pixels at sample distance `isd`, as VTK computes it (in float)."""
+    return int(np.float32(size) / np.float32(isd))
 
 
-class Peer:
-    def __init__(self, workdir):
-        self.dir = workdir
-        self.vtk = None
+def aligned_isd(w):
+    """The largest float sample distance that gives 2W + 1 rays across W pixels."""
+    target = 2 * w + 1
+    isd = np.float32(w) / np.float32(target)
+    while rays_across(w, isd) < target:
+        isd = np.nextafter(isd, np.float32(0))
+    return isd
+
+
+class VtkPeer(Peer):
+    version = "1.0"
+    projections = ("ortho", "persp")
+
+    def __init__(self, mapper):
+        if mapper not in ("pt", "raycast", "zsweep"):
+            raise SystemExit(f"vtk_peer.py: unknown mapper {mapper!r} (pt, raycast, zsweep)")
+        self.kind = mapper
+        self.name = "vtk-" + mapper
+        self.family = "pt" if mapper == "pt" else "raycasting"
+        self.integrators = ("average",) if mapper == "pt" else ("preint", "partial")
         self.window = None
         self.size = None
+        self.dropped = 0
 
-    # -- set-up ------------------------------------------------------------------------------
-
-    def hello(self, _msg):
+    def hello(self, msg):
         """Imports VTK and opens the offscreen (EGL, else OSMesa) window."""
-        t0 = time.perf_counter()
-        import numpy  # noqa: F401  (checked here so that a missing numpy is one clear line)
         from vtkmodules.vtkCommonCore import vtkVersion
 
         import vtkmodules.vtkRenderingOpenGL2 as gl2
@@ -75,16 +82,12 @@ class Peer:
             if "renderer string" in line:
                 renderer = line.split(":", 1)[1].strip()
         self.window = window
-        self.window_class = window.GetClassName()
-        return {
-            "vtk": vtkVersion.GetVTKVersion(),
-            "gl": renderer,
-            "window": self.window_class,
-            "import_ms": (time.perf_counter() - t0) * 1e3,
-        }
+        device = f"vtk {vtkVersion.GetVTKVersion()} / {renderer} / {window.GetClassName()}"
+        return {"device": device}
 
-    def prepare(self, msg):
-        import numpy as np
+    # -- set-up --------------------------------------------------------------------------------
+
+    def prepare(self, scene):
         from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray
         from vtkmodules.vtkCommonCore import vtkPoints
         from vtkmodules.vtkCommonDataModel import (
@@ -116,11 +119,19 @@ class Peer:
             vtkUnstructuredGridVolumeZSweepMapper,
         )
 
-        t0 = time.perf_counter()
-        d = self.dir
-        pts = np.fromfile(os.path.join(d, "points.f64"), dtype="<f8").reshape(-1, 3)
-        s = np.fromfile(os.path.join(d, "scalars.f64"), dtype="<f8")
-        tets = np.fromfile(os.path.join(d, "tets.i64"), dtype="<i8").reshape(-1, 4)
+        self.grid_mode = scene.params.get("grid", "vtk")
+        if self.grid_mode not in ("vtk", "aligned"):
+            raise ValueError(f"grid={self.grid_mode}: expected vtk or aligned")
+        pts = scene.positions
+        length = scene.diagonal
+        # Cells with zero volume (|V| < 1e-14 L^3) hold no optical depth; VTK's Bunyk ray caster
+        # crashes on them.
+        tets = scene.cells.astype(np.int64)
+        e = pts[tets[:, 1:]] - pts[tets[:, :1]]
+        vol = np.linalg.det(e) / 6.0
+        keep = ~((np.abs(vol) < 1e-14 * length * length * length) | (vol == 0.0))
+        self.dropped = int((~keep).sum())
+        tets = tets[keep]
 
         grid = vtkUnstructuredGrid()
         points = vtkPoints()
@@ -133,45 +144,47 @@ class Peer:
             numpy_to_vtkIdTypeArray(np.ascontiguousarray(tets).ravel(), deep=1),
         )
         grid.SetCells(VTK_TETRA, cells)
-        scalars = numpy_to_vtk(np.ascontiguousarray(s), deep=1)
+        scalars = numpy_to_vtk(np.ascontiguousarray(scene.scalars), deep=1)
         scalars.SetName("s")
         grid.GetPointData().SetScalars(scalars)
 
         # Colour and opacity carry a node at every transfer-function point (VTK's ray-cast
-        # integrators read opacity only at colour nodes), both clamped beyond the ends.
+        # integrators read opacity only at colour nodes), both clamped beyond the ends. Our
+        # tau (per normalised length) becomes opacity tau / tau_max with unit distance
+        # L / tau_max, so VTK's attenuation (opacity per unit distance) is tau / L.
+        tf = scene.tf
+        tau_max = float(tf.tau.max()) if len(tf.tau) else 0.0
+        if tau_max > 0.0 and length > 0.0:
+            norm, unit = 1.0 / tau_max, length / tau_max
+        else:
+            norm, unit = 0.0, max(length, sys.float_info.min)
         color = vtkColorTransferFunction()
         opacity = vtkPiecewiseFunction()
-        for p in msg["tf"]:
-            color.AddRGBPoint(p["s"], *p["rgb"])
-            opacity.AddPoint(p["s"], p["opacity"])
+        for s, rgb, tau in zip(tf.s, tf.rgb, tf.tau):
+            color.AddRGBPoint(float(s), *(float(c) for c in rgb))
+            opacity.AddPoint(float(s), min(float(tau) * norm, 1.0))
         color.ClampingOn()
         opacity.ClampingOn()
         prop = vtkVolumeProperty()
         prop.SetColor(color)
         prop.SetScalarOpacity(opacity)
-        prop.SetScalarOpacityUnitDistance(msg["unit_distance"])
+        prop.SetScalarOpacityUnitDistance(unit)
         prop.SetInterpolationTypeToLinear()
         prop.ShadeOff()
 
-        kind = msg["mapper"]
-        if kind == "pt":
+        if self.kind == "pt":
             mapper = vtkProjectedTetrahedraMapper()
-        elif kind in ("raycast", "zsweep"):
+        else:
             mapper = (
                 vtkUnstructuredGridVolumeRayCastMapper()
-                if kind == "raycast"
+                if self.kind == "raycast"
                 else vtkUnstructuredGridVolumeZSweepMapper()
             )
             mapper.SetAutoAdjustSampleDistances(0)
-            integ = msg["integrator"]
-            if integ == "preint":
+            if scene.integrator == "preint":
                 mapper.SetRayIntegrator(vtkUnstructuredGridPreIntegration())
-            elif integ == "partial":
-                mapper.SetRayIntegrator(vtkUnstructuredGridPartialPreIntegration())
             else:
-                raise ValueError(f"unknown integrator {integ}")
-        else:
-            raise ValueError(f"unknown mapper {kind}")
+                mapper.SetRayIntegrator(vtkUnstructuredGridPartialPreIntegration())
         mapper.SetInputData(grid)
         volume = vtkVolume()
         volume.SetMapper(mapper)
@@ -196,35 +209,74 @@ class Peer:
         fb.SetDelegatePass(cam_pass)
         ren.SetPass(fb)
 
-        if self.window is not None:
-            old = self.window.GetRenderers().GetFirstRenderer()
-            if old is not None:
-                self.window.RemoveRenderer(old)
+        old = self.window.GetRenderers().GetFirstRenderer()
+        if old is not None:
+            self.window.RemoveRenderer(old)
         self.window.AddRenderer(ren)
-        self.ren, self.fb, self.mapper, self.kind = ren, fb, mapper, kind
-        self.grid = grid
-        self.size = None
-        build_ms = (time.perf_counter() - t0) * 1e3
-        # VTK's first render (the PT mapper's draws nothing) belongs to set-up.
-        t1 = time.perf_counter()
-        self.set_camera(msg["warmup"])
-        self.window.Render()
-        self.size = (msg["warmup"]["width"], msg["warmup"]["height"])
-        return {
-            "build_ms": build_ms,
-            "first_render_ms": (time.perf_counter() - t1) * 1e3,
+        self.ren, self.fb, self.mapper, self.grid = ren, fb, mapper, grid
+        # VTK's first render (the PT mapper's draws nothing) belongs to set-up: a 64x64 ortho
+        # frame from view (0, 0).
+        r = max(0.5 * length, sys.float_info.min)
+        warm = {
+            "width": 64, "height": 64, "projection": "ortho",
+            "eye": [0.0, 0.0, 2.0 * r], "up": [0.0, 1.0, 0.0],
+            "radius": r, "pixel_size": 2.0 * r / 64,
         }
+        self.set_camera(self.vtk_camera(warm)[0])
+        self.window.Render()
+        self.size = (64, 64)
 
-    # -- frames ------------------------------------------------------------------------------
+    def prepare_counters(self):
+        return {"dropped_cells": self.dropped}
+
+    # -- frames --------------------------------------------------------------------------------
+
+    def vtk_camera(self, c):
+        """The contract's camera in VTK's terms, and the ray count (docs/vtk.md, "Camera")."""
+        w, h = max(int(c["width"]), 1), max(int(c["height"]), 1)
+        r = max(float(c["radius"]), sys.float_info.min)
+        half_h = 0.5 * h * float(c["pixel_size"])
+        if self.kind == "pt" or self.grid_mode == "vtk":
+            isd, nx, ny = np.float32(1.0), w, h
+        else:
+            isd = aligned_isd(w)
+            nx, ny = rays_across(w, isd), rays_across(h, isd)
+        # Ray grids: widen by N/(N-1); the ray caster's rays sit at k/N, so it is also shifted
+        # by half a sample; ZSweep's sit at (k + 1/2)/N and need no shift.
+        nxf, nyf = float(max(nx, 2)), float(max(ny, 2))
+        if self.kind == "pt":
+            scale, center = 1.0, [0.0, 0.0]
+        elif self.kind == "raycast":
+            scale, center = nyf / (nyf - 1.0), [1.0 / nxf, 1.0 / nyf]
+        else:
+            scale, center = nyf / (nyf - 1.0), [0.0, 0.0]
+        half_v = half_h * scale
+        if c["projection"] == "ortho":
+            parallel, angle, clip = True, 0.0, [0.25 * r, 3.75 * r]
+        else:
+            parallel, clip = False, [0.5 * r, 4.5 * r]
+            angle = 2.0 * math.atan(half_v / (3.0 * r)) * (180.0 / math.pi)
+        cam = {
+            "width": w, "height": h,
+            "position": [float(x) for x in c["eye"]],
+            "view_up": [float(x) for x in c["up"]],
+            "parallel": parallel,
+            "parallel_scale": half_v,
+            "view_angle": angle,
+            "window_center": center,
+            "clipping_range": clip,
+            "image_sample_distance": float(isd),
+        }
+        return cam, nx * ny
 
     def set_camera(self, c):
         w, h = c["width"], c["height"]
-        if self.window.GetSize() != (w, h) and list(self.window.GetSize()) != [w, h]:
+        if list(self.window.GetSize()) != [w, h]:
             self.window.SetSize(w, h)
         if self.kind != "pt":
             self.mapper.SetImageSampleDistance(c["image_sample_distance"])
         cam = self.ren.GetActiveCamera()
-        cam.SetFocalPoint(*c["focal_point"])
+        cam.SetFocalPoint(0.0, 0.0, 0.0)
         cam.SetPosition(*c["position"])
         cam.SetViewUp(*c["view_up"])
         if c["parallel"]:
@@ -236,10 +288,13 @@ class Peer:
         cam.SetWindowCenter(*c["window_center"])
         cam.SetClippingRange(*c["clipping_range"])
 
-    def render(self, msg):
-        import numpy as np
-
-        c = msg["camera"]
+    def render(self, camera):
+        msg = {
+            "width": camera.width, "height": camera.height, "projection": camera.projection,
+            "eye": camera.eye, "up": camera.up, "radius": camera.radius,
+            "pixel_size": camera.pixel_size,
+        }
+        c, rays = self.vtk_camera(msg)
         w, h = c["width"], c["height"]
         self.set_camera(c)
         warm_ms = 0.0
@@ -262,40 +317,17 @@ class Peer:
         if not pbo.Download2D(10, img, [w, h], 4, [0, 0]):  # 10 = VTK_FLOAT
             raise RuntimeError("reading the float colour target failed")
         t2 = time.perf_counter()
+        counters = {"warmup_ms": warm_ms}
+        if self.kind != "pt":
+            counters["rays"] = rays
         # OpenGL's row 0 is the bottom; tetbench's is the top.
-        np.ascontiguousarray(img[::-1]).tofile(os.path.join(self.dir, "image.f32"))
-        return {
-            "draw_ms": (t1 - t0) * 1e3,
-            "readback_ms": (t2 - t1) * 1e3,
-            "warmup_ms": warm_ms,
-        }
-
-
-def main():
-    workdir = sys.argv[1]
-    # Keep the protocol channel private: VTK (C++) may print to fd 1, so point fd 1 at stderr.
-    proto = os.fdopen(os.dup(1), "w", buffering=1)
-    os.dup2(2, 1)
-    sys.stdout = sys.stderr
-    peer = Peer(workdir)
-    handlers = {"hello": peer.hello, "prepare": peer.prepare, "render": peer.render}
-    for line in sys.stdin:
-        line = line.strip()
-        if not line:
-            continue
-        try:
-            msg = json.loads(line)
-            if msg.get("cmd") == "quit":
-                break
-            reply = handlers[msg["cmd"]](msg)
-            reply["ok"] = True
-        except Exception as e:
-            traceback.print_exc(file=sys.stderr)
-            reply = {"ok": False, "error": f"{type(e).__name__}: {e}".replace("\n", " ")}
-        reply["peak_rss_bytes"] = peak_rss_bytes()
-        proto.write(json.dumps(reply) + "\n")
-        proto.flush()
+        return Frame(
+            img[::-1],
+            draw_ms=(t1 - t0) * 1e3,
+            readback_ms=(t2 - t1) * 1e3,
+            counters=counters,
+        )
 
 
 if __name__ == "__main__":
-    main()
+    serve(VtkPeer(sys.argv[1] if len(sys.argv) > 1 else ""))

@@ -81,7 +81,7 @@ pub static CPU_PT: RendererInfo = RendererInfo {
     table_sorts: &["*"],
     default_integrator: "partial",
     params: &[],
-    make: |o| {
+    make: |_, o| {
         Ok(Box::new(CpuPt::new(
             o.sort.as_deref().unwrap_or("centroid"),
             o.integrator.as_deref().unwrap_or("partial"),

@@ -106,7 +106,7 @@ pub static HAPT: RendererInfo = RendererInfo {
             doc: "1: upload time step k mod n of the active field before frame k",
         },
     ],
-    make: |o| Ok(Box::new(Hapt::new(o)?)),
+    make: |_, o| Ok(Box::new(Hapt::new(o)?)),
 };
 
 /// Library and stage sources of hapt.

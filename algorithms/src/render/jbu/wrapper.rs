@@ -44,7 +44,7 @@ pub static JBU: RendererInfo = RendererInfo {
     default_integrator: "as <renderer>",
     // Given in the name (`jbu:raycast@128,k=2`); `--param` keys go to the inner renderer.
     params: super::PARAMS,
-    make: |_| {
+    make: |_, _| {
         Err(Error::Input(
             "jbu: give the inner renderer and low size, e.g. jbu:raycast@128".into(),
         ))

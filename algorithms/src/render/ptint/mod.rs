@@ -76,7 +76,7 @@ pub static PTINT: RendererInfo = RendererInfo {
     table_sorts: &["centroid"],
     default_integrator: "partial",
     params: &[],
-    make: |o| {
+    make: |_, o| {
         Ok(Box::new(Ptint::new(
             o.sort.as_deref().unwrap_or("centroid"),
             o.integrator.as_deref().unwrap_or("partial"),

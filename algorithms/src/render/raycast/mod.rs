@@ -51,7 +51,7 @@ pub static RAYCAST: RendererInfo = RendererInfo {
     table_sorts: &[],
     default_integrator: "partial",
     params: &[],
-    make: |o| {
+    make: |_, o| {
         Ok(Box::new(RayCaster::new(
             o.integrator.as_deref().unwrap_or("partial"),
             "raycast",
@@ -71,7 +71,7 @@ pub static REFERENCE: RendererInfo = RendererInfo {
     table_sorts: &[],
     default_integrator: "exact",
     params: &[],
-    make: |_: &RenderOptions| Ok(Box::new(RayCaster::new("exact", "reference"))),
+    make: |_, _: &RenderOptions| Ok(Box::new(RayCaster::new("exact", "reference"))),
 };
 
 /// Side of the square pixel tiles rays are cast in.

@@ -55,7 +55,8 @@ pub enum Command {
         json: bool,
     },
     /// List renderers, sorts, integrators, transfer-function presets and datasets.
-    List,
+    #[command(after_help = "Example: tetbench list --peers peers/examples/peers.toml")]
+    List(ListArgs),
     /// Run an experiment file: datasets x renderers x sorts x integrators x sizes x views.
     #[command(
         after_help = "Example: tetbench bench harness/experiments/example.toml --out out/example
@@ -83,6 +84,12 @@ DIR/images/. Reference images are cached in DIR/.cache by content hash. Keys: do
         /// Discard the results already in DIR and start again.
         #[arg(long)]
         force: bool,
+        #[command(flatten)]
+        peers: PeersArg,
+        /// Run the peers declared in the experiment file itself ([[peer]] tables start
+        /// programs: without this flag such a file is refused).
+        #[arg(long)]
+        allow_peers: bool,
     },
     /// Merge the directories of `tetbench bench --shard I/N` runs into one, and draw the plots.
     #[command(
@@ -137,6 +144,8 @@ and `bcc_reconstruction`.")]
         /// merge job (submit them, or copy them into your own scripts).
         #[arg(long, value_name = "N")]
         slurm: Option<usize>,
+        #[command(flatten)]
+        peers: PeersArg,
     },
     /// Redraw the plots of a bench output directory from its results.csv (and pairs.csv), or
     /// of a reproduce directory from its raw/<table>/ rows.
@@ -145,6 +154,64 @@ and `bcc_reconstruction`.")]
         /// A directory written by `tetbench bench` or `tetbench reproduce`.
         dir: PathBuf,
     },
+    /// Peers: renderers in other programs (docs/peers.md).
+    Peer {
+        #[command(subcommand)]
+        command: PeerCommand,
+    },
+}
+
+#[derive(Subcommand, Debug)]
+pub enum PeerCommand {
+    /// The conformance suite: the contract's scenes (convex and non-convex meshes, the hard
+    /// cases of the peer's family, ortho and persp, every integrator it offers), each against
+    /// `reference` with the bound of docs/peers.md; protocol errors, image sizes, non-finite
+    /// pixels, time and memory per frame. Prints a Markdown report; exits 0 only when every
+    /// scene passes (3 when some fail).
+    #[command(after_help = "Examples:
+  tetbench peer check numpy-raycast --peers peers/examples/peers.toml
+  tetbench peer check --family pt -- ./my-peer --fast")]
+    Check(PeerCheckArgs),
+}
+
+/// Peers files named on the command line.
+#[derive(Args, Debug, Clone, Default)]
+pub struct PeersArg {
+    /// A peers file ([[peer]] tables, docs/peers.md); repeatable, added to the files named by
+    /// TETBENCH_PEERS (colon-separated).
+    #[arg(long = "peers", value_name = "FILE")]
+    pub files: Vec<PathBuf>,
+}
+
+#[derive(Args, Debug)]
+pub struct ListArgs {
+    #[command(flatten)]
+    pub peers: PeersArg,
+}
+
+#[derive(Args, Debug)]
+pub struct PeerCheckArgs {
+    /// The peer's name (declared in a peers file, or a VTK peer); or give its command after --.
+    #[arg(required_unless_present = "command", conflicts_with = "command")]
+    pub name: Option<String>,
+    #[command(flatten)]
+    pub peers: PeersArg,
+    /// For a peer given as a command: its family, pt, raycasting or other (default: what its
+    /// hello says, else other).
+    #[arg(long)]
+    pub family: Option<String>,
+    /// For a peer given as a command: the deadline of each request, in seconds.
+    #[arg(long, default_value_t = 120.0)]
+    pub timeout: f64,
+    /// Image size of every scene (one more scene is drawn at a non-square size).
+    #[arg(long, default_value = "96x96")]
+    pub size: String,
+    /// Also write the Markdown report to this file.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// The peer's command and arguments, after `--`.
+    #[arg(last = true, value_name = "CMD")]
+    pub command: Vec<String>,
 }
 
 /// How a mesh is found and read.
@@ -219,4 +286,6 @@ pub struct RenderArgs {
     /// Print the timing split as JSON.
     #[arg(long)]
     pub json: bool,
+    #[command(flatten)]
+    pub peers: PeersArg,
 }

@@ -10,7 +10,7 @@ use algorithms::{metrics, optics, tf, util::alloc, Error, Result, TransferFuncti
 use serde_json::{json, Map, Value};
 
 use crate::bench;
-use crate::cli::{Cli, Command, MeshArgs, RenderArgs};
+use crate::cli::{Cli, Command, MeshArgs, PeerCheckArgs, PeerCommand, RenderArgs};
 use crate::measure::{measure, Frames};
 use crate::meshes::{load_mesh, parse_size};
 use crate::rows;
@@ -130,10 +130,29 @@ fn merge_cmd(
 /// Runs one subcommand. `Err` is a run that stopped (bad input, an I/O error, Ctrl-C); a run
 /// that finished says whether some of its measurements failed.
 pub fn run(cli: Cli) -> Result<Finished> {
+    // Peers join the registry here, once, before any renderer is looked up.
+    match &cli.command {
+        Command::List(a) => crate::peers::register(&a.peers.files, None, false)?,
+        Command::Render(a) => crate::peers::register(&a.peers.files, None, false)?,
+        Command::Bench {
+            config,
+            peers,
+            allow_peers,
+            ..
+        } => crate::peers::register(&peers.files, Some(config), *allow_peers)?,
+        Command::Reproduce { peers, .. } => crate::peers::register(&peers.files, None, false)?,
+        Command::Peer {
+            command: PeerCommand::Check(a),
+        } => crate::peers::register(&a.peers.files, None, false)?,
+        _ => {}
+    }
     let done = |r: Result<()>| r.map(|()| Finished::Clean);
     match cli.command {
         Command::Info { mesh, json } => done(info(&mesh, json)),
         Command::Render(args) => done(render_cmd(&args)),
+        Command::Peer {
+            command: PeerCommand::Check(args),
+        } => peer_check(&args),
         Command::Compare {
             test,
             reference,
@@ -166,7 +185,7 @@ pub fn run(cli: Cli) -> Result<Finished> {
             print_pairs(e.fields().iter().map(|(k, v)| (*k, json!(v))), json);
             Ok(Finished::Clean)
         }
-        Command::List => {
+        Command::List(_) => {
             list();
             Ok(Finished::Clean)
         }
@@ -177,6 +196,7 @@ pub fn run(cli: Cli) -> Result<Finished> {
             shard,
             resume,
             force,
+            ..
         } => bench_cmd(&BenchFlags {
             config: &config,
             out: &out,
@@ -198,6 +218,7 @@ pub fn run(cli: Cli) -> Result<Finished> {
             merge,
             resume,
             slurm,
+            ..
         } => {
             if let Some(n) = slurm {
                 return done(slurm_commands(quick, &out, &only, n));
@@ -233,6 +254,69 @@ pub fn run(cli: Cli) -> Result<Finished> {
             Ok(Finished::Clean)
         }
     }
+}
+
+/// `tetbench peer check NAME` or `tetbench peer check -- CMD ARGS…`.
+fn peer_check(args: &PeerCheckArgs) -> Result<Finished> {
+    use algorithms::render::peer::{Launch, PeerFamily, PeerSpec};
+    let size = parse_size(&args.size).map_err(|e| match e {
+        Error::Input(m) => Error::Input(format!("--{m}")),
+        o => o,
+    })?;
+    let spec = match (&args.name, args.command.split_first()) {
+        (Some(name), _) => match render::peer::spec_of(name) {
+            Some(spec) => spec?,
+            None => {
+                render::info(name)?;
+                return Err(Error::Input(format!(
+                    "'{name}' is a renderer built into tetbench, not a peer"
+                )));
+            }
+        },
+        (None, Some((program, rest))) => {
+            let family = match &args.family {
+                None => PeerFamily::Other,
+                Some(f) => PeerFamily::parse(f).ok_or_else(|| {
+                    Error::Input(format!("--family {f}: expected pt, raycasting or other"))
+                })?,
+            };
+            if !(args.timeout.is_finite() && args.timeout > 0.0 && args.timeout <= 86_400.0) {
+                return Err(Error::Input(format!(
+                    "--timeout {}: expected seconds in (0, 86400]",
+                    args.timeout
+                )));
+            }
+            PeerSpec {
+                name: std::path::Path::new(program)
+                    .file_name()
+                    .map(|n| n.to_string_lossy().into_owned())
+                    .unwrap_or_else(|| program.clone()),
+                description: String::new(),
+                family,
+                integrators: Vec::new(),
+                params: Vec::new(),
+                timeout: std::time::Duration::from_secs_f64(args.timeout),
+                launch: Launch {
+                    program: program.into(),
+                    args: rest.iter().map(Into::into).collect(),
+                    cwd: Some(
+                        std::env::current_dir()
+                            .map_err(|e| Error::Io(format!("the current directory: {e}")))?,
+                    ),
+                    env: Vec::new(),
+                    files: Vec::new(),
+                },
+                origin: "the command line".into(),
+            }
+        }
+        (None, None) => {
+            return Err(Error::Input(
+                "peer check: name a peer, or give its command after --".into(),
+            ))
+        }
+    };
+    let failed = crate::peers::check::check(spec, size, args.out.as_deref())?;
+    Ok(Finished::with_failed(failed))
 }
 
 /// `reproduce --slurm N`: the sbatch commands of an N-task array and its merge job.
@@ -388,8 +472,10 @@ fn render_cmd(args: &RenderArgs) -> Result<()> {
         sort: args.sort.clone(),
         integrator: args.integrator.clone(),
         params,
+        log_dir: None,
     };
     let mut renderer = render::make(&args.renderer, &opts)?;
+    crate::bench::announce_peers([args.renderer.as_str()]);
     let tf = TransferFunction::load(&args.tf)?;
     let view = View::parse(&args.view)?;
     let projection = Projection::parse(&args.projection)?;
@@ -458,17 +544,26 @@ fn render_cmd(args: &RenderArgs) -> Result<()> {
 
 fn list() {
     println!("renderers:");
-    for r in render::REGISTRY {
+    for r in render::all() {
         println!(
             "  {:<12} {} [{}{}]",
             r.name,
             r.description,
-            r.family.name(),
+            match render::peer_family(r) {
+                Some(f) => format!("{}, peer of family {}", r.family.name(), f.name()),
+                None => r.family.name().to_string(),
+            },
             if r.needs_gpu { ", GPU" } else { "" }
         );
-        // External renderers (the VTK peers) say whether they can run and how to enable them.
-        if r.family == render::Family::External {
-            match render::vtk::python() {
+        // Peers say what they run, or (VTK's) how to enable them.
+        match render::peer::find(r.name) {
+            Some(p) => println!(
+                "  {:<12}   runs: {} (declared in {})",
+                "",
+                p.spec.launch.command_line(),
+                p.spec.origin
+            ),
+            None if r.family == render::Family::External => match render::vtk::python() {
                 Ok(p) => println!(
                     "  {:<12}   enabled: {}={}",
                     "",
@@ -476,7 +571,8 @@ fn list() {
                     p.display()
                 ),
                 Err(e) => println!("  {:<12}   {e}", ""),
-            }
+            },
+            None => {}
         }
         if !r.sorts.is_empty() {
             println!(

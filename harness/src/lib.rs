@@ -3,7 +3,8 @@
 //! - `stats`, `table` (numbers and paper tables), `rows` (measured rows and their CSV),
 //!   `meshes` (where meshes come from), `progress`, `sysinfo`;
 //! - `measure` (the one frame-timing loop), `plots`, `experiment` (experiment files);
-//! - `bench` (running an experiment, with `sweep` and `merge` for its shards);
+//! - `bench` (running an experiment, with `sweep` and `merge` for its shards), `peers` (peer
+//!   declarations registered for a command, and the conformance suite);
 //! - `papers` (the papers' tables, one file per paper, each an experiment measured by `bench`),
 //!   `reproduce` (the loop over them); `cli` (clap, turned into the plain types above) and
 //!   `commands` (the subcommands), which nothing else uses.
@@ -16,6 +17,7 @@ pub mod measure;
 pub mod merge;
 pub mod meshes;
 pub mod papers;
+pub mod peers;
 pub mod plots;
 pub mod progress;
 pub mod reproduce;

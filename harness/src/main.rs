@@ -17,11 +17,13 @@ fn main() -> ExitCode {
     }
     quiet_runtime_dir();
     let cli = tetbench::cli::Cli::parse();
-    // Ctrl-C: the first stops the run at the next frame (finished rows are already on disk),
-    // the second exits at once.
+    // Ctrl-C (or SIGTERM, SIGHUP): the first stops the run at the next frame (finished rows
+    // are already on disk; peers end as their renderers are dropped), the second exits at once,
+    // ending every peer's process group first (their `Drop` does not run on exit).
     let _ = ctrlc::set_handler(|| {
         use std::sync::atomic::Ordering;
         if tetbench::measure::INTERRUPTED.swap(true, Ordering::SeqCst) {
+            algorithms::render::peer::end_all();
             std::process::exit(130);
         }
         eprintln!(

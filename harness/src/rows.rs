@@ -36,6 +36,10 @@ pub struct Row {
     pub readback_ms: f64,
     pub total_ms: f64,
     pub total_min_ms: f64,
+    /// Median wall-clock time of one `render` call as the harness sees it: for a peer, the
+    /// whole request (transfers included) beside its own stage times.
+    #[serde(default)]
+    pub wall_ms: f64,
     pub fps: f64,
     pub tets_per_s: f64,
     pub cpu_bytes_per_tet: f64,

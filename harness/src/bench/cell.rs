@@ -54,20 +54,25 @@ pub struct Prepared {
 
 impl Prepared {
     /// Makes the variant's renderer and prepares it, timing setup and counting its heap bytes.
-    /// Its cameras frame `frame`.
+    /// Its cameras frame `frame`; a peer's log (its stderr) goes to `log_dir/<renderer>.log`.
     pub fn new(
         exp: &Experiment,
         var: &Variant,
         dataset: &str,
         mesh: &Mesh,
         frame: Aabb,
+        log_dir: Option<&Path>,
     ) -> Result<Self> {
         let mut renderer: Box<dyn Renderer> = match &var.unavailable {
             Some(why) => Box::new(Unavailable {
                 name: var.renderer.clone(),
                 why: why.clone(),
             }),
-            None => render::make(&var.renderer, &var.options)?,
+            None => {
+                let mut o = var.options.clone();
+                o.log_dir = log_dir.map(Path::to_path_buf);
+                render::make(&var.renderer, &o)?
+            }
         };
         let fresh = mesh.clone();
         let t0 = Instant::now();
@@ -321,6 +326,7 @@ fn finish_row(
                 &mut row.readback_ms,
                 &mut row.total_ms,
                 &mut row.total_min_ms,
+                &mut row.wall_ms,
                 &mut row.fps,
                 &mut row.tets_per_s,
             ] {
@@ -339,13 +345,16 @@ fn finish_row(
     row.total_min_ms = m.total_min_ms;
     row.fps = 1e3 / t.total_ms.max(1e-9);
     row.tets_per_s = row.tets as f64 / (t.total_ms.max(1e-9) * 1e-3);
+    row.wall_ms = m.wall_ms;
     row.non_finite_pixels = m.image.non_finite_pixels();
     row.image_hash = super::image_hash(&m.image);
     row.counters = crate::rows::format_counters(&m.counters);
-    // An external renderer's bytes are its helper process's peak RSS, known after the frames.
+    // A peer's bytes are its process group's peak RSS (and the GPU bytes it reports), known
+    // after the frames.
     if let Some(b) = p.renderer.external_bytes() {
         row.cpu_bytes_per_tet = b as f64 / row.tets.max(1) as f64;
         row.cpu_peak_bytes_per_tet = row.cpu_bytes_per_tet;
+        row.gpu_bytes_per_tet = p.renderer.gpu_bytes() as f64 / row.tets.max(1) as f64;
     }
     let yardstick = match reference {
         None => None,

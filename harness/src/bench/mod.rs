@@ -34,6 +34,9 @@ use images::{compare_pairs, image_stem, save_images};
 pub use images::{image_hash, mesh_hash, sanitize};
 use yardsticks::{ref_path, references};
 
+/// Where the peers' logs (their stderr) go in the output directory, one file per peer.
+pub const PEER_LOGS: &str = "peer-logs";
+
 /// What a run produced.
 #[derive(Debug, Default)]
 pub struct Outcome {
@@ -132,7 +135,37 @@ pub fn preflight(exp: &Experiment, out: &Path) -> Result<()> {
         render::make(&v.renderer, &v.options)
             .map_err(|e| Error::Input(format!("variant '{}': {e}", v.label)))?;
     }
+    // What each peer will run, before the first frame.
+    announce_peers(
+        exp.variants
+            .iter()
+            .filter(|v| v.unavailable.is_none())
+            .map(|v| v.renderer.as_str()),
+    );
     Ok(())
+}
+
+/// Prints, once each, the command line of every peer among `renderers` (before the first
+/// frame, so that the user sees what will run).
+pub fn announce_peers<'a>(renderers: impl IntoIterator<Item = &'a str>) {
+    let mut done: Vec<&str> = Vec::new();
+    for name in renderers {
+        if done.contains(&name) {
+            continue;
+        }
+        done.push(name);
+        if let Some(Ok(spec)) = render::peer::spec_of(name) {
+            let dir = match &spec.launch.cwd {
+                Some(d) => d.display().to_string(),
+                None => "its private directory".to_string(),
+            };
+            eprintln!(
+                "tetbench: peer '{name}' runs `{}` in {dir} (timeout {} s a request)",
+                spec.launch.command_line(),
+                spec.timeout.as_secs_f64()
+            );
+        }
+    }
 }
 
 /// Opens `results.csv` for this run: refuses a directory holding results unless resumed or
@@ -361,7 +394,14 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<Outcome> {
                 continue;
             }
             bar.set_message(format!("{name}: {} setup", var.label));
-            let mut p = Prepared::new(exp, var, &name, &mesh, frame)?;
+            let mut p = Prepared::new(
+                exp,
+                var,
+                &name,
+                &mesh,
+                frame,
+                Some(&opts.out.join(PEER_LOGS)),
+            )?;
             if exp.interleave {
                 // Measured below, cell by cell, with the other variants.
                 prepared.push((var, k, p));

@@ -78,6 +78,11 @@ pub struct Config {
     /// `DIR/pairs.csv`.
     #[serde(default)]
     pub pairs: Vec<PairSpec>,
+    /// Peers this experiment declares (`[[peer]]` tables, docs/peers.md). They start programs,
+    /// so the command line registers them only with `--allow-peers`, before the experiment is
+    /// validated.
+    #[serde(default)]
+    pub peer: Vec<algorithms::render::peer::decl::PeerDecl>,
 }
 
 /// A string or a list of strings.

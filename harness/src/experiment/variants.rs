@@ -194,6 +194,7 @@ pub fn expand_renderer(
                     .iter()
                     .map(|(k, v)| (k.clone(), v.clone()))
                     .collect(),
+                log_dir: None,
             };
             let variant = |renderer: String, sort: String, integrator: String, why| Variant {
                 label: variant_label(&renderer, &sort, &integrator) + &suffix,

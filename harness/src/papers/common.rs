@@ -2,6 +2,7 @@
 //! NASA grids when present, else their analogues), the experiment every table starts from,
 //! aggregation over the views, the common notes, and the algorithm tables' paper rows.
 
+use algorithms::render::peer::PeerFamily;
 use algorithms::render::{self, Family};
 use algorithms::Result;
 
@@ -95,16 +96,24 @@ pub(crate) fn ray_casters(preint_too: bool) -> Vec<RendererSpec> {
         .collect()
 }
 
-/// Meshes above this many tets get no row from an external renderer in the speed tables: VTK's
-/// mappers on llvmpipe take seconds (ZSweep tens of seconds) a 512² frame at 200K tets.
+/// Meshes above this many tets get no row from a peer in the speed tables: VTK's mappers on
+/// llvmpipe take seconds (ZSweep tens of seconds) a 512² frame at 200K tets.
 pub(crate) const EXTERNAL_MAX_TETS: usize = 600_000;
 
-/// The external peers (every renderer the registry files under [`Family::External`]: VTK's
-/// mappers) with their default integrators, for the speed tables — only those that can run
-/// here (the VTK ones need `TETBENCH_VTK_PYTHON`), so a run without them is unchanged.
+/// The peers that join the PT and ray-casting speed tables: every renderer the registry files
+/// under [`Family::External`] — VTK's mappers and the declared peers — whose declared family is
+/// `pt` or `raycasting` (an `other` peer runs only when named), with its default integrator,
+/// and only those that can run here (the VTK ones need `TETBENCH_VTK_PYTHON`), so a run
+/// without them is unchanged.
 pub(crate) fn external_peers() -> Vec<RendererSpec> {
     render::family(Family::External)
         .into_iter()
+        .filter(|i| {
+            matches!(
+                render::peer_family(i),
+                Some(PeerFamily::Pt | PeerFamily::RayCasting)
+            )
+        })
         .filter(|i| render::make(i.name, &Default::default()).is_ok())
         .filter_map(|i| want(i.name, &[], &[i.default_integrator]))
         .map(|mut r| {
@@ -114,7 +123,7 @@ pub(crate) fn external_peers() -> Vec<RendererSpec> {
         .collect()
 }
 
-/// A table note naming the external peers in the run, or saying how to add them.
+/// A table note naming the peers in the run, or saying how to add them.
 pub(crate) fn external_note() -> String {
     let all: Vec<&str> = render::family(Family::External)
         .iter()
@@ -123,14 +132,15 @@ pub(crate) fn external_note() -> String {
     let run: Vec<String> = external_peers().into_iter().map(|r| r.name).collect();
     if run.is_empty() {
         format!(
-            "External peers ({}) not in this run: {}.",
+            "Peers ({}) not in this run: {}; declared peers (docs/peers.md) join with --peers FILE.",
             all.join(", "),
             render::vtk::HOW_TO_ENABLE
         )
     } else {
         format!(
-            "External peers: {} (VTK's mappers, default integrators, meshes up to {} tets; \
-             docs/vtk.md), measured like ours: time inside the helper, bytes = its peak RSS.",
+            "Peers: {} (other programs over the peer protocol: VTK's mappers, docs/vtk.md, and \
+             declared peers, docs/peers.md; default integrators, meshes up to {} tets), measured \
+             like ours: the peer's own stage times, bytes = its peak RSS.",
             run.join(", "),
             EXTERNAL_MAX_TETS
         )

@@ -23,7 +23,7 @@ use std::cell::Cell;
 use std::collections::HashSet;
 use std::path::PathBuf;
 use std::sync::{Mutex, OnceLock};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use super::{Family, Frame, FrameTimes, RenderOptions, Renderer, RendererInfo};
 use crate::camera::Camera;
@@ -431,7 +431,6 @@ impl Renderer for PeerRenderer {
         };
         // A stale image must not pass for this frame's.
         let _ = std::fs::remove_file(&image_path);
-        let t0 = Instant::now();
         let reply = self.call(&protocol::render_request(camera, &image_path))?;
         let stage = |r: &serde_json::Value, k: &str| protocol::number(r, k);
         let times = (|| -> Result<[f64; 4]> {
@@ -456,7 +455,6 @@ impl Renderer for PeerRenderer {
         }
         let [project_ms, sort_ms, draw_ms, readback_ms] = times;
         counters.extend(self.prepare_counters.iter().copied());
-        counters.push(("peer_request_ms", super::ms_since(t0)));
         counters.push(("peer_restarts", self.restarts as f64));
         Ok(Frame {
             image,

@@ -198,7 +198,7 @@ pub struct PeerCheckArgs {
     pub peers: PeersArg,
     /// For a peer given as a command: its family, pt, raycasting or other (default: what its
     /// hello says, else other).
-    #[arg(long)]
+    #[arg(long, requires = "command")]
     pub family: Option<String>,
     /// For a peer given as a command: the deadline of each request, in seconds.
     #[arg(long, default_value_t = 120.0)]

@@ -263,6 +263,12 @@ fn peer_check(args: &PeerCheckArgs) -> Result<Finished> {
         Error::Input(m) => Error::Input(format!("--{m}")),
         o => o,
     })?;
+    let family = match &args.family {
+        None => None,
+        Some(f) => Some(PeerFamily::parse(f).ok_or_else(|| {
+            Error::Input(format!("--family {f}: expected pt, raycasting or other"))
+        })?),
+    };
     let spec = match (&args.name, args.command.split_first()) {
         (Some(name), _) => match render::peer::spec_of(name) {
             Some(spec) => spec?,
@@ -274,12 +280,8 @@ fn peer_check(args: &PeerCheckArgs) -> Result<Finished> {
             }
         },
         (None, Some((program, rest))) => {
-            let family = match &args.family {
-                None => PeerFamily::Other,
-                Some(f) => PeerFamily::parse(f).ok_or_else(|| {
-                    Error::Input(format!("--family {f}: expected pt, raycasting or other"))
-                })?,
-            };
+            // Until its hello says otherwise (check::run).
+            let family = PeerFamily::Other;
             if !(args.timeout.is_finite() && args.timeout > 0.0 && args.timeout <= 86_400.0) {
                 return Err(Error::Input(format!(
                     "--timeout {}: expected seconds in (0, 86400]",
@@ -315,7 +317,7 @@ fn peer_check(args: &PeerCheckArgs) -> Result<Finished> {
             ))
         }
     };
-    let failed = crate::peers::check::check(spec, size, args.out.as_deref())?;
+    let failed = crate::peers::check::check(spec, family, size, args.out.as_deref())?;
     Ok(Finished::with_failed(failed))
 }
 

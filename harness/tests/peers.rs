@@ -370,10 +370,16 @@ fn the_conformance_check_fails_a_peer_that_misbehaves() {
         .args(["nan", &tag]));
     let out = text(&o.stdout);
     assert_eq!(o.status.code(), Some(3), "{out}\n{}", text(&o.stderr));
+    // Named by its hello, checked as its hello's family says (other: no hard cases).
     assert!(
-        out.contains("**FAIL**: peer 'python3': image has 256 pixels that are NaN"),
+        out.starts_with("# Conformance of peer `fault-nan`"),
         "{out}"
     );
+    assert!(
+        out.contains("**FAIL**: peer 'fault-nan': image has 256 pixels that are NaN"),
+        "{out}"
+    );
+    assert!(!out.contains("hard-slivers"), "{out}");
     // It refuses an unknown request, but answers a hello of another major version: caught.
     assert!(
         out.contains("- pass a request of an unknown type: refused"),
@@ -592,6 +598,7 @@ fn faults_cost_one_row_each_and_no_process_outlives_the_bench() {
         "close-stdin",
         "child",
         "flaky",
+        "refuse-prepare",
     ];
     let peers = fault_peers(&d, &tag, &modes);
     let renderers: Vec<String> = modes
@@ -654,6 +661,11 @@ fn faults_cost_one_row_each_and_no_process_outlives_the_bench() {
             ("die-mid-frame", "exited during render"),
             ("close-stdin", "stopped reading requests before prepare"),
             ("child", "no reply to render within 2 s"),
+            // The peer's own error reply, as one line.
+            (
+                "refuse-prepare",
+                "peer 'refuse-prepare' failed prepare: no mesh for me",
+            ),
         ] {
             let n = note(m, view);
             assert!(n.contains(want), "{m} {view}: {want:?} not in {n:?}");

@@ -122,8 +122,23 @@ struct Outcome {
     problem: Option<String>,
 }
 
-/// Runs the suite and writes the report; returns it and the number of failed checks.
-pub fn run(spec: PeerSpec, size: (u32, u32)) -> Result<(String, usize)> {
+/// Runs the suite and writes the report; returns it and the number of failed checks. A peer
+/// given as a command (its spec has no integrators) is named and described by its `hello`;
+/// `family` (`--family`) overrides the family it says.
+pub fn run(
+    spec: PeerSpec,
+    family: Option<PeerFamily>,
+    size: (u32, u32),
+) -> Result<(String, usize)> {
+    let (hello, protocol_lines) = protocol_checks(&spec);
+    let mut spec = spec;
+    if let Some(h) = hello.as_ref().filter(|_| spec.integrators.is_empty()) {
+        spec.name = h.name.clone();
+        spec.integrators = h.integrators.clone();
+        spec.family = family
+            .or_else(|| h.family.as_deref().and_then(PeerFamily::parse))
+            .unwrap_or(PeerFamily::Other);
+    }
     let mut report = String::new();
     let _ = writeln!(report, "# Conformance of peer `{}`\n", spec.name);
     let _ = writeln!(
@@ -135,7 +150,6 @@ pub fn run(spec: PeerSpec, size: (u32, u32)) -> Result<(String, usize)> {
         env!("CARGO_PKG_VERSION"),
         protocol::PROTOCOL
     );
-    let (hello, protocol_lines) = protocol_checks(&spec);
     let mut failed = protocol_lines.iter().filter(|l| !l.0).count();
     let _ = writeln!(report, "## Protocol\n");
     for (ok, line) in &protocol_lines {
@@ -148,10 +162,6 @@ pub fn run(spec: PeerSpec, size: (u32, u32)) -> Result<(String, usize)> {
         );
         return Ok((report, failed.max(1)));
     };
-    let mut spec = spec;
-    if spec.integrators.is_empty() {
-        spec.integrators = hello.integrators.clone();
-    }
     let projections: Vec<Projection> = [Projection::Ortho, Projection::Persp]
         .into_iter()
         .filter(|p| hello.projections.iter().any(|h| h == p.name()))
@@ -400,13 +410,18 @@ fn protocol_checks(spec: &PeerSpec) -> (Option<protocol::Hello>, Vec<(bool, Stri
 }
 
 /// `tetbench peer check`'s entry: the report printed (and written to `out`), failures counted.
-pub fn check(spec: PeerSpec, size: (u32, u32), out: Option<&Path>) -> Result<usize> {
+pub fn check(
+    spec: PeerSpec,
+    family: Option<PeerFamily>,
+    size: (u32, u32),
+    out: Option<&Path>,
+) -> Result<usize> {
     eprintln!(
         "tetbench: peer '{}' runs `{}`",
         spec.name,
         spec.launch.command_line()
     );
-    let (report, failed) = run(spec, size)?;
+    let (report, failed) = run(spec, family, size)?;
     print!("{report}");
     if let Some(path) = out {
         algorithms::io::atomic_write(path, |w| {

@@ -10,7 +10,8 @@ garbage (a line that is not JSON); endless (a reply line that never ends); wrong
 16 bytes short); nan (NaN pixels); die-mid-frame (SIGKILL on itself half-way through writing
 the image); close-stdin (closes stdin, then answers hello: the next request cannot be written);
 child (starts a grandchild, then hangs in render); flaky (crashes on its first render only,
-remembered in STATE_DIR); v2 (speaks protocol 2.0).
+remembered in STATE_DIR); v2 (speaks protocol 2.0); refuse-prepare (answers prepare with an
+error reply on two lines, which must arrive as one).
 """
 
 import json
@@ -61,6 +62,9 @@ for line in sys.stdin:
     elif kind == "prepare":
         if mode == "hang-prepare":
             sleep_forever()
+        if mode == "refuse-prepare":
+            reply(ok=False, error="no mesh\nfor me")
+            continue
         reply(ok=True)
     elif kind == "render":
         w, h = m["width"], m["height"]

@@ -217,6 +217,8 @@ pub struct PeerRenderer {
     hello: Option<Hello>,
     /// The scene of the last `prepare`, for a fresh process after a fault.
     tf: Option<TransferFunction>,
+    /// Whether the running process holds that scene.
+    prepared: bool,
     prepare_counters: Vec<(&'static str, f64)>,
     restarts: usize,
     peak_rss: Cell<u64>,
@@ -256,6 +258,7 @@ impl PeerRenderer {
             process: None,
             hello: None,
             tf: None,
+            prepared: false,
             prepare_counters: Vec::new(),
             restarts: 0,
             peak_rss: Cell::new(0),
@@ -293,35 +296,46 @@ impl PeerRenderer {
         )))
     }
 
-    /// Ends the process after a fault in what it sent (the next request starts a fresh one).
+    /// Ends the process at once after a fault in what it sent (the next request starts a
+    /// fresh one).
     fn fault(&mut self, msg: String) -> Error {
-        self.process = None;
+        self.end_process();
         Error::Input(format!("peer '{}': {msg}", self.spec.name))
     }
 
-    /// Starts a process and checks its `hello`.
+    fn end_process(&mut self) {
+        if let Some(mut p) = self.process.take() {
+            p.kill();
+        }
+        self.prepared = false;
+    }
+
+    /// Starts a process and checks its `hello`; a process whose hello is refused is ended.
     fn start(&mut self) -> Result<()> {
+        self.end_process();
         let p = PeerProcess::start(&self.spec.name, &self.spec.launch, self.log.as_deref())?;
         let dir = p.dir().to_path_buf();
         self.process = Some(p);
-        let reply = self.call(&protocol::hello_request(&dir))?;
-        let hello = protocol::read_hello(&self.spec.name, &reply).inspect_err(|_| {
-            self.process = None;
-        })?;
-        let declared = if self.spec.integrators.is_empty() {
-            &hello.integrators
-        } else {
-            &self.spec.integrators
-        };
-        if let Some(missing) = declared.iter().find(|i| !hello.integrators.contains(i)) {
-            self.process = None;
-            return Err(Error::Input(format!(
-                "peer '{}' is declared with integrator '{missing}' ({}), but its hello offers: {}",
-                self.spec.name,
-                self.spec.origin,
-                hello.integrators.join(", ")
-            )));
-        }
+        let hello = self
+            .call(&protocol::hello_request(&dir))
+            .and_then(|reply| protocol::read_hello(&self.spec.name, &reply))
+            .and_then(|hello| {
+                let declared = if self.spec.integrators.is_empty() {
+                    &hello.integrators
+                } else {
+                    &self.spec.integrators
+                };
+                match declared.iter().find(|i| !hello.integrators.contains(i)) {
+                    None => Ok(hello),
+                    Some(missing) => Err(Error::Input(format!(
+                        "peer '{}' is declared with integrator '{missing}' ({}), but its hello offers: {}",
+                        self.spec.name,
+                        self.spec.origin,
+                        hello.integrators.join(", ")
+                    ))),
+                }
+            })
+            .inspect_err(|_| self.end_process())?;
         if self.integrator.is_empty() {
             self.integrator = hello.integrators.first().cloned().unwrap_or_default();
         }
@@ -347,6 +361,7 @@ impl PeerRenderer {
         }
         self.read_extras(&reply)?;
         self.prepare_counters = self.counters(&reply)?;
+        self.prepared = true;
         Ok(())
     }
 
@@ -364,16 +379,22 @@ impl PeerRenderer {
             .collect())
     }
 
-    /// A fresh process prepared with the last scene, when the last one was ended.
+    fn running(&self) -> bool {
+        self.process.as_ref().is_some_and(|p| !p.ended())
+    }
+
+    /// A process that holds the last scene: a fresh one when the last was ended.
     fn ensure_running(&mut self, mesh: &Mesh) -> Result<()> {
-        if self.process.as_ref().is_some_and(|p| !p.ended()) {
+        if self.running() && self.prepared {
             return Ok(());
         }
         let tf = self.tf.clone().ok_or_else(|| {
             Error::Internal(format!("peer '{}': render before prepare", self.spec.name))
         })?;
-        self.restarts += 1;
-        self.start()?;
+        if !self.running() {
+            self.restarts += 1;
+            self.start()?;
+        }
         self.send_scene(mesh, &tf)
     }
 }
@@ -407,7 +428,8 @@ impl Renderer for PeerRenderer {
 
     fn prepare(&mut self, mesh: &Mesh, tf: &TransferFunction) -> Result<()> {
         self.tf = Some(tf.clone());
-        if self.process.as_ref().is_none_or(|p| p.ended()) {
+        self.prepared = false;
+        if !self.running() {
             self.start()?;
         }
         self.send_scene(mesh, tf)

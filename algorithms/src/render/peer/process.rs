@@ -544,6 +544,11 @@ impl PeerProcess {
             .sum()
     }
 
+    /// Kills the peer's whole group now (after a fault in what it sent).
+    pub fn kill(&mut self) {
+        self.end(false);
+    }
+
     /// Says `bye` (when `polite`), gives the peer [`GRACE`] to leave, then kills its whole
     /// group and reaps it.
     fn end(&mut self, polite: bool) {

@@ -85,10 +85,19 @@ fn bench_cmd(f: &BenchFlags) -> Result<Finished> {
         "reference_images: {} rendered, {} from cache",
         o.reference_renders, o.reference_hits
     );
-    // A shard's plots would show a part of the sweep: `merge` draws them.
-    if f.plots && shard.count == 1 {
-        for p in crate::plots::all(&o.rows, &o.pairs, out)? {
+    // A shard's plots, figure and report would show a part of the sweep: `merge` draws them.
+    if shard.count == 1 {
+        let plots = if f.plots {
+            crate::plots::all(&o.rows, &o.pairs, out)?
+        } else {
+            Vec::new()
+        };
+        for p in &plots {
             println!("plot: {}", p.display());
+        }
+        let command = format!("tetbench bench {}", f.config.display());
+        for p in crate::report::sweep(out, &o.rows, &plots, &command)? {
+            println!("report: {}", p.display());
         }
     }
     Ok(report_failed(&o.rows))
@@ -119,10 +128,16 @@ fn merge_cmd(
     let rows = crate::merge::merge(out, shards)?;
     println!("rows: {}", rows.len());
     println!("results: {}", out.join("results.csv").display());
-    if plots {
-        for p in crate::plots::all(&rows, &[], out)? {
-            println!("plot: {}", p.display());
-        }
+    let plots = if plots {
+        crate::plots::all(&rows, &[], out)?
+    } else {
+        Vec::new()
+    };
+    for p in &plots {
+        println!("plot: {}", p.display());
+    }
+    for p in crate::report::sweep(out, &rows, &plots, "tetbench merge")? {
+        println!("report: {}", p.display());
     }
     Ok(report_failed(&rows))
 }

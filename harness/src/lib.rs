@@ -5,6 +5,7 @@
 //! - `measure` (the one frame-timing loop), `plots`, `experiment` (experiment files);
 //! - `bench` (running an experiment, with `sweep` and `merge` for its shards), `peers` (peer
 //!   declarations registered for a command, and the conformance suite);
+//! - `report` (image figures and the HTML report, from what `bench` kept);
 //! - `papers` (the papers' tables, one file per paper, each an experiment measured by `bench`),
 //!   `reproduce` (the loop over them); `cli` (clap, turned into the plain types above) and
 //!   `commands` (the subcommands), which nothing else uses.
@@ -20,6 +21,7 @@ pub mod papers;
 pub mod peers;
 pub mod plots;
 pub mod progress;
+pub mod report;
 pub mod reproduce;
 pub mod rows;
 pub mod stats;

@@ -118,6 +118,8 @@ pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<Vec<Row>> {
         }
     }
     std::fs::rename(&tmp, &p).map_err(|e| Error::io(&p, e))?;
+    // Each shard kept the figure images of the cells it measured.
+    crate::bench::keep::merge(out, shards)?;
     Ok(rows)
 }
 

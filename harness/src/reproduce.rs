@@ -10,6 +10,7 @@ use algorithms::render;
 use algorithms::{Error, Result};
 
 use crate::papers::{self, Ctx, Done, PaperTable};
+use crate::report::html::Section;
 use crate::table::{plot_notes, write_table};
 
 /// The status line of one table in `DIR/README.md`; kept in `DIR/raw/<id>/status.md` so that a
@@ -71,38 +72,168 @@ pub fn select(only: &[String]) -> Result<Vec<&'static dyn PaperTable>> {
         .collect())
 }
 
-/// Runs one table and writes its files; the status line for the README.
+/// Runs one table and writes its files (the table, its image figure, its report section); the
+/// status line for the README.
 fn run_one(t: &dyn PaperTable, ctx: &Ctx, machine: &str, date: &str) -> Result<String> {
     let t0 = Instant::now();
     let done = t.run(ctx)?;
     let secs = t0.elapsed().as_secs_f64();
     let quick = if ctx.quick { ", --quick" } else { "" };
-    Ok(match done {
+    let section = Section {
+        id: t.id().to_string(),
+        title: t.title().to_string(),
+        about: t.about().to_string(),
+        ..Default::default()
+    };
+    // One line per table on stdout, whatever became of it.
+    let (status, section) = match done {
         Done::Skipped(why) => {
-            eprintln!("tetbench: {}: skipped: {why}", t.id());
-            format!("skipped: {why} ({date})")
+            println!("{}: skipped: {why}", t.id());
+            let status = format!("skipped: {why} ({date})");
+            (
+                status.clone(),
+                Section {
+                    status,
+                    skipped: true,
+                    ..section
+                },
+            )
         }
-        Done::Files(what) => format!("{what}: {secs:.0} s ({date}{quick})"),
+        Done::Files(what) => {
+            println!("{}: written in {secs:.0} s", t.id());
+            let status = format!("{what}: {secs:.0} s ({date}{quick})");
+            (
+                status.clone(),
+                files_section(section, &ctx.out, t.id(), &status)?,
+            )
+        }
         Done::Table { mut table, plots } => {
             table.id = t.id().to_string();
             table.title = t.title().to_string();
             table
                 .notes
                 .push(format!("This table took {secs:.0} s to measure."));
+            // The image figure of an experiment table, from what its sweep kept under raw/<id>/.
+            let raw = ctx.out.join("raw").join(t.id());
+            let rows = match raw.join("results.csv") {
+                csv if csv.exists() => crate::rows::read_rows(&csv)?,
+                _ => Vec::new(),
+            };
+            let stem = ctx.out.join(format!("{}-images", t.id()));
+            let figure = crate::report::figure::draw(&rows, &raw, &stem, t.title())?;
             plot_notes(&mut table, &plots);
+            if let Some(f) = &figure {
+                table.notes.push(format!("Images: ![{0}]({0})", f.png));
+            }
             write_table(&table, &ctx.out, machine, date)?;
             println!(
-                "table: {} ({} rows, {secs:.0} s)",
+                "{}: {} rows in {secs:.0} s: {}",
+                t.id(),
+                table.rows.len(),
                 ctx.out.join(format!("{}.md", t.id())).display(),
-                table.rows.len()
             );
-            format!(
+            let status = format!(
                 "[{0}.md]({0}.md), [{0}.csv]({0}.csv): {1} rows, {secs:.0} s ({date}{quick})",
                 t.id(),
                 table.rows.len(),
-            )
+            );
+            let section = Section {
+                status: format!("{} rows, {secs:.0} s ({date}{quick})", table.rows.len()),
+                figure,
+                files: vec![format!("{}.md", t.id()), format!("{}.csv", t.id())],
+                ..section
+            }
+            .with_table(&table)
+            .with_plots(&plots, &ctx.out)
+            .with_failures(&rows);
+            (status, section)
         }
-    })
+    };
+    section.save(&section_path(&ctx.out, t.id()))?;
+    Ok(status)
+}
+
+/// A table that wrote its own files: its CSV as the section's table, its PNG plots
+/// (`DIR/<id>-*.png`, `DIR/<id>_*.png`).
+fn files_section(section: Section, out: &Path, id: &str, status: &str) -> Result<Section> {
+    let csv = out.join(format!("{id}.csv"));
+    let mut table = crate::table::Table::default();
+    if csv.exists() {
+        let err = |e: csv::Error| Error::Input(format!("{}: {e}", csv.display()));
+        let mut r = csv::Reader::from_path(&csv).map_err(err)?;
+        for h in r.headers().map_err(err)? {
+            table.col(h, false);
+        }
+        for rec in r.records() {
+            table
+                .rows
+                .push(rec.map_err(err)?.iter().map(String::from).collect());
+        }
+    }
+    let mut plots: Vec<PathBuf> = std::fs::read_dir(out)
+        .map_err(|e| Error::io(out, e))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            let n = p.file_name().unwrap_or_default().to_string_lossy();
+            (n.starts_with(&format!("{id}-")) || n.starts_with(&format!("{id}_")))
+                && n.ends_with(".png")
+        })
+        .collect();
+    plots.sort();
+    let files = [format!("{id}.md"), format!("{id}.csv")]
+        .into_iter()
+        .filter(|f| out.join(f).exists())
+        .collect();
+    Ok(Section {
+        status: status.to_string(),
+        files,
+        ..section
+    }
+    .with_table(&table)
+    .with_plots(&plots, out))
+}
+
+/// Where a table's report section is kept (a later `--only` run rebuilds the whole report).
+fn section_path(out: &Path, id: &str) -> PathBuf {
+    out.join("raw").join(id).join("section.json")
+}
+
+/// `DIR/index.html`: every table's section, this run's and the earlier ones.
+fn write_index(out: &Path, quick: bool, only: &[String], total: f64) -> Result<PathBuf> {
+    let mut facts = crate::report::facts();
+    if let Some(g) = gpu_line() {
+        facts.push(("GPU adapter".into(), g));
+    }
+    facts.push(("renderers registered".into(), render::names().join(", ")));
+    facts.push((
+        "this run".into(),
+        format!(
+            "{}{total:.0} s",
+            if only.is_empty() {
+                String::new()
+            } else {
+                format!("--only {}, ", only.join(","))
+            }
+        ),
+    ));
+    let sections = papers::TABLES
+        .iter()
+        .map(|t| {
+            Section::load(&section_path(out, t.id())).unwrap_or_else(|| Section {
+                id: t.id().to_string(),
+                title: t.title().to_string(),
+                about: t.about().to_string(),
+                status: "not run yet".into(),
+                ..Default::default()
+            })
+        })
+        .collect();
+    let report = crate::report::html::Report {
+        title: format!("tetbench reproduce{}", if quick { " --quick" } else { "" }),
+        facts,
+        sections,
+    };
+    crate::report::html::write(&report, out)
 }
 
 /// Runs every table (or those in `only`), writing tables, plots and `DIR/README.md`.
@@ -133,6 +264,13 @@ pub fn run(
     }
     let total = started.elapsed().as_secs_f64();
     write_readme(out, quick, only, &machine, &date, total)?;
+    // A shard holds raw rows only: the report comes with the merge.
+    if !matches!(ctx.sweep, crate::papers::Sweep::Shard(_)) {
+        println!(
+            "report: {}",
+            write_index(out, quick, only, total)?.display()
+        );
+    }
     println!("wall_time_s: {total:.1}");
     let failed = ctx.failed.get();
     if failed > 0 {

@@ -25,6 +25,7 @@ use crate::sweep::{self, Lock, Shard, ShardInfo};
 
 mod cell;
 mod images;
+pub mod keep;
 mod yardsticks;
 pub use cell::{
     cells, isolated, measure_cell, measure_cell_interleaved, Cell, Prepared, RefImage,
@@ -71,6 +72,9 @@ pub struct RunOptions {
     pub progress: bool,
     /// Label in front of the progress bar.
     pub title: String,
+    /// Print a line for each variant left out of a dataset (`max_tets`); `reproduce` turns it
+    /// off (its tables' notes say so, and it prints one line per table).
+    pub log: bool,
     /// The part of the measurement matrix this run measures.
     pub shard: Shard,
     /// Measure only the rows not yet in `results.csv`.
@@ -94,6 +98,7 @@ impl RunOptions {
             cache_dir,
             progress: true,
             title: exp.name.clone(),
+            log: true,
             shard: Shard::ALL,
             resume: false,
             force: false,
@@ -219,6 +224,7 @@ fn open_results(exp: &Experiment, opts: &RunOptions) -> Result<(CsvSink, Vec<Row
             let _ = std::fs::remove_file(opts.out.join(f));
         }
         let _ = std::fs::remove_dir_all(opts.out.join("images"));
+        let _ = std::fs::remove_dir_all(opts.out.join(keep::DIR));
     }
     let _ = std::fs::remove_dir_all(opts.out.join(yardsticks::RUN_DIR));
     Ok((CsvSink::create(&csv_path)?, Vec::new()))
@@ -255,6 +261,11 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<Outcome> {
     info.write(&opts.out)?;
 
     let cells = cells(exp);
+    // The image figure's cell: its images are kept as measured (`keep`).
+    let figure = figure_cell(&cells);
+    if let Some(c) = &figure {
+        c.write(&opts.out)?;
+    }
     let refs = if exp.error {
         cells.len() * yardsticks::kinds(exp)
     } else {
@@ -359,6 +370,11 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<Outcome> {
          -> Result<()> {
             if let Some(img) = &image {
                 let reference = ref_of(var, cell).filter(|r| r.1.is_none()).map(|r| r.0);
+                if figure.as_ref().is_some_and(|f| f.is(cell)) {
+                    let yardstick = var.yardstick.label();
+                    let against = reference.as_deref().map(|p| (p, yardstick.as_str()));
+                    keep::keep_image(&opts.out, &name, &var.label, img, against)?;
+                }
                 save_images(exp, opts, var, &name, cell, img, reference.as_deref())?;
                 if pair_labels.contains(var.label.as_str()) {
                     let d = pair_dir.join(sanitize(&var.label));
@@ -489,6 +505,27 @@ fn as_ref_image(r: &Option<(PathBuf, Option<String>)>) -> Option<RefImage<'_>> {
     r.as_ref().map(|(p, why)| match why {
         Some(w) => Err(w.as_str()),
         None => Ok(p.as_path()),
+    })
+}
+
+/// The cell whose images the figure shows: the first projection and view at the largest size
+/// up to 512² (else the smallest size).
+fn figure_cell(cells: &[Cell]) -> Option<keep::KeptCell> {
+    let first = cells.first()?;
+    let px = |c: &Cell| c.size.0 as u64 * c.size.1 as u64;
+    let size = cells
+        .iter()
+        .filter(|c| px(c) <= 512 * 512)
+        .max_by_key(|c| px(c))
+        .or_else(|| cells.iter().min_by_key(|c| px(c)))?
+        .size;
+    Some(keep::KeptCell {
+        projection: first.projection.name().to_string(),
+        width: size.0,
+        height: size.1,
+        view_id: first.view.id.clone(),
+        azimuth: first.view.view.azimuth,
+        elevation: first.view.view.elevation,
     })
 }
 

@@ -364,6 +364,7 @@ pub(crate) fn run_experiment(
     let mut opts = bench::RunOptions::new(&exp, &raw);
     opts.cache_dir = ctx.out.join(".cache");
     opts.title = t.id().to_string();
+    opts.log = false;
     // `reproduce` regenerates its tables: the raw rows of an earlier run are replaced, unless
     // it resumes one (an experiment with image pairs cannot resume: it is measured again).
     opts.resume = ctx.resume && exp.pairs.is_empty();

@@ -21,7 +21,7 @@ struct Args {
     /// Random seed (jitter, Gaussian centres); the same default as tetbench's.
     #[arg(long, default_value_t = datasets_gen::DEFAULT_SEED)]
     seed: u64,
-    /// Output file (.off or .vtu). A time-varying mesh written to .off gives one file per
+    /// Output file (.off, .vtu or .vtk). A time-varying mesh written to .off gives one file per
     /// step, FILE with `.NNNN` before the extension.
     #[arg(long, required_unless_present = "list")]
     out: Option<PathBuf>,
@@ -86,10 +86,11 @@ fn main() -> ExitCode {
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
-    if ext != "off" && ext != "vtu" {
+    if !algorithms::io::writers::FORMATS.contains(&ext.as_str()) {
         return fail(format!(
-            "{}: cannot write '.{ext}' (known: .off, .vtu)",
-            out.display()
+            "{}: cannot write '.{ext}' (known: .{})",
+            out.display(),
+            algorithms::io::writers::FORMATS.join(", .")
         ));
     }
     let mut mesh = match datasets_gen::generate(&name, args.tets, args.seed) {

@@ -39,6 +39,22 @@ pub enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Write the tets tetbench renders for MESH as .vtu, .vtk or .off: the NASA grids with their
+    /// 5-tet split, generated meshes, every field with the active one marked.
+    #[command(
+        after_help = "Examples: tetbench convert blunt blunt.vtu; tetbench convert fighter:200000 fighter.vtk
+
+.vtu (VTK XML) and .vtk (VTK legacy 5.1, binary) hold every field, each time step as
+name_tNNN, the active one as the point data's scalars; .off holds the active field only.
+ParaView and VTK then show the same tets tetbench renders. The file is written under a
+temporary name and renamed, so a failed write leaves nothing behind."
+    )]
+    Convert {
+        #[command(flatten)]
+        mesh: MeshArgs,
+        /// Output file: .vtu, .vtk or .off.
+        out: PathBuf,
+    },
     /// Render one image.
     #[command(
         after_help = "Example: tetbench render blunt --renderer reference --view 0,0 --size 256x256 --out blunt.exr"

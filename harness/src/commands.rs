@@ -164,6 +164,7 @@ pub fn run(cli: Cli) -> Result<Finished> {
     let done = |r: Result<()>| r.map(|()| Finished::Clean);
     match cli.command {
         Command::Info { mesh, json } => done(info(&mesh, json)),
+        Command::Convert { mesh, out } => done(convert(&mesh, &out)),
         Command::Render(args) => done(render_cmd(&args)),
         Command::Peer {
             command: PeerCommand::Check(args),
@@ -401,6 +402,42 @@ fn num(v: f64) -> Value {
     } else {
         json!(v.to_string())
     }
+}
+
+/// `tetbench convert`: the mesh as tetbench loads it, written by extension.
+fn convert(args: &MeshArgs, out: &std::path::Path) -> Result<()> {
+    let ext = out
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    if !io::writers::FORMATS.contains(&ext.as_str()) {
+        return Err(Error::Input(format!(
+            "{}: output must end in .{}",
+            out.display(),
+            io::writers::FORMATS.join(", .")
+        )));
+    }
+    let mesh = load_mesh(&args.to_spec())?;
+    io::write(&mesh, out)?;
+    let (field, step) = mesh.active_field();
+    let arrays: usize = mesh.fields().iter().map(|f| f.steps.len()).sum();
+    if ext == "off" && arrays > 1 {
+        eprintln!(
+            "tetbench: note: .off holds one field: {field}[{step}] written, the other {} arrays are not (write .vtu or .vtk for every field)",
+            arrays - 1
+        );
+    }
+    print_pairs(
+        [
+            ("vertices", json!(mesh.num_vertices())),
+            ("tets", json!(mesh.num_tets())),
+            ("scalar_field", json!(format!("{field}[{step}]"))),
+            ("arrays", json!(if ext == "off" { 1 } else { arrays })),
+            ("out", json!(out.display().to_string())),
+        ],
+        false,
+    );
+    Ok(())
 }
 
 fn info(args: &MeshArgs, as_json: bool) -> Result<()> {

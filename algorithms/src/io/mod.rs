@@ -1,6 +1,6 @@
 //! Mesh files (CONVENTIONS §9): readers for tetrahedral `.off`, VTK legacy `.vtk`, VTK XML `.vtu`
-//! and PLOT3D structured grids; writers for `.off` and `.vtu`. Every reader returns
-//! `Error::Input` with one line naming the file and the line or field at fault.
+//! and PLOT3D structured grids; writers for `.off`, `.vtk` and `.vtu` ([`writers`]). Every
+//! reader returns `Error::Input` with one line naming the file and the line or field at fault.
 
 use std::path::{Path, PathBuf};
 
@@ -49,10 +49,13 @@ pub mod plot3d;
 pub mod split;
 pub mod vtk;
 pub mod vtu;
+pub mod writers;
 
 pub use plot3d::read_plot3d;
 pub use vtk::read_vtk;
-pub use vtu::{read_vtu, write_vtu};
+pub use vtu::read_vtu;
+pub use writers::vtk::write_vtk;
+pub use writers::vtu::write_vtu;
 
 /// Writes a file through a temporary sibling and renames it into place, so that a failure never
 /// leaves a half-written output.
@@ -199,14 +202,7 @@ pub fn load_path(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
     }
 }
 
-/// Writes a mesh, choosing the writer by extension (`.off` or `.vtu`).
+/// Writes a mesh, choosing the writer by extension (`.off`, `.vtk`, `.vtu`; see [`writers`]).
 pub fn write(mesh: &Mesh, path: &Path) -> Result<()> {
-    match extension(path).as_str() {
-        "off" => off::write_off(mesh, path),
-        "vtu" => vtu::write_vtu(mesh, path),
-        e => Err(Error::Input(format!(
-            "{}: cannot write '.{e}' (known: .off, .vtu)",
-            path.display()
-        ))),
-    }
+    writers::write(mesh, path)
 }

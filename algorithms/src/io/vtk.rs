@@ -20,6 +20,32 @@ use crate::io::split::{self, DType};
 use crate::io::LoadOptions;
 use crate::mesh::Mesh;
 
+/// An array name with VTK's `%XX` escapes (spaces and other bytes a legacy name cannot hold)
+/// decoded; a `%` not followed by two hex digits stays as it is.
+fn decode_name(s: &str) -> String {
+    let b = s.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        let hex = |c: u8| (c as char).to_digit(16);
+        match (
+            b[i],
+            b.get(i + 1).and_then(|&c| hex(c)),
+            b.get(i + 2).and_then(|&c| hex(c)),
+        ) {
+            (b'%', Some(h), Some(l)) => {
+                out.push((h * 16 + l) as u8);
+                i += 3;
+            }
+            (c, _, _) => {
+                out.push(c);
+                i += 1;
+            }
+        }
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
 /// Reads a VTK legacy file (see the module docs).
 pub fn read_vtk(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
@@ -518,7 +544,7 @@ pub fn parse_vtk(bytes: &[u8], source: &str, opts: &LoadOptions) -> Result<Mesh>
                             c.err(la, "FIELD array: expected 'name components tuples type'")
                         );
                     }
-                    let name = wa[0].to_string();
+                    let name = decode_name(wa[0]);
                     let what = format!("FIELD array '{}'", name.escape_debug());
                     let ncomp = count(&c, la, &wa, 1)?;
                     let ntup = count(&c, la, &wa, 2)?;
@@ -558,7 +584,8 @@ pub fn parse_vtk(bytes: &[u8], source: &str, opts: &LoadOptions) -> Result<Mesh>
                         return Err(c.err(l, format!("{kw} before POINT_DATA or CELL_DATA")));
                     }
                 };
-                let name = w.get(1).copied().unwrap_or("");
+                let name = decode_name(w.get(1).copied().unwrap_or(""));
+                let name = name.as_str();
                 let what = format!("{kw} '{}'", name.escape_debug());
                 let too_large =
                     || Error::input(format!("{source}:{l}"), format!("{what}: size too large"));

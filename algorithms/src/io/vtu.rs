@@ -1,4 +1,4 @@
-//! VTK XML `.vtu` (UnstructuredGrid) reader and writer.
+//! VTK XML `.vtu` (UnstructuredGrid) reader.
 //!
 //! Reads DataArrays in `ascii`, `binary` (base64, `header_type` UInt32 or UInt64, zlib blocks
 //! when `compressor="vtkZLibDataCompressor"`) and `appended` format (`AppendedData` raw or
@@ -9,12 +9,10 @@
 //! (checked counts, no allocation from a lying header, messages that name line and array);
 //! the appended block is cut off before the XML parser sees it, since raw bytes are not XML.
 //!
-//! [`write_vtu`] writes appended raw little-endian data, UInt64 headers, Float64 points and
-//! fields (every step), Int64 connectivity and offsets, UInt8 types: lossless.
+//! The writer is [`crate::io::writers::vtu`].
 
 use std::collections::BTreeMap;
-use std::fmt::Write as _;
-use std::io::{Read, Write};
+use std::io::Read;
 use std::path::Path;
 
 use base64::engine::{DecodePaddingMode, GeneralPurpose, GeneralPurposeConfig};
@@ -817,148 +815,14 @@ fn build(
     Ok(mesh)
 }
 
-// ---------------------------------------------------------------------------------------------
-// Writer.
-
-fn esc(s: &str) -> String {
-    let mut o = String::with_capacity(s.len());
-    for c in s.chars() {
-        match c {
-            '&' => o.push_str("&amp;"),
-            '<' => o.push_str("&lt;"),
-            '>' => o.push_str("&gt;"),
-            '"' => o.push_str("&quot;"),
-            '\'' => o.push_str("&apos;"),
-            '\n' => o.push_str("&#10;"),
-            '\r' => o.push_str("&#13;"),
-            '\t' => o.push_str("&#9;"),
-            c => o.push(c),
-        }
-    }
-    o
-}
-
-/// Appended-data builder: every array is a UInt64 byte count and little-endian values.
-struct Appended {
-    data: Vec<u8>,
-}
-
-impl Appended {
-    fn push(&mut self, bytes: impl ExactSizeIterator<Item = u8>) -> usize {
-        let off = self.data.len();
-        self.data.extend((bytes.len() as u64).to_le_bytes());
-        self.data.extend(bytes);
-        off
-    }
-    fn f64s(&mut self, v: &[f64]) -> usize {
-        let off = self.data.len();
-        self.data.extend(((v.len() * 8) as u64).to_le_bytes());
-        for x in v {
-            self.data.extend(x.to_le_bytes());
-        }
-        off
-    }
-}
-
-/// Writes `mesh` as a `.vtu` (appended raw, see the module docs). The file is written next to
-/// `path` under a temporary name and renamed ([`crate::io::atomic_write`]), so a failure
-/// leaves no partial file.
-pub fn write_vtu(mesh: &Mesh, path: &Path) -> Result<()> {
-    let mut app = Appended { data: Vec::new() };
-    let mut x = String::new();
-    let n = mesh.num_vertices();
-    let nt = mesh.num_tets();
-    x.push_str("<?xml version=\"1.0\"?>\n");
-    x.push_str("<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n");
-    x.push_str("  <UnstructuredGrid>\n");
-    if !mesh.field_data.is_empty() {
-        x.push_str("    <FieldData>\n");
-        for (name, v) in &mesh.field_data {
-            let off = app.f64s(v);
-            let _ = writeln!(
-                x,
-                "      <DataArray type=\"Float64\" Name=\"{}\" NumberOfTuples=\"{}\" format=\"appended\" offset=\"{off}\"/>",
-                esc(name),
-                v.len()
-            );
-        }
-        x.push_str("    </FieldData>\n");
-    }
-    let _ = writeln!(
-        x,
-        "    <Piece NumberOfPoints=\"{n}\" NumberOfCells=\"{nt}\">"
-    );
-    let (active, step) = mesh.active_field();
-    let active_steps = mesh
-        .fields()
-        .iter()
-        .find(|f| f.name == active)
-        .map_or(1, |f| f.steps.len());
-    let _ = writeln!(
-        x,
-        "      <PointData Scalars=\"{}\">",
-        esc(&split::step_name(active, step, active_steps))
-    );
-    for f in mesh.fields() {
-        for (k, s) in f.steps.iter().enumerate() {
-            let off = app.f64s(s);
-            let _ = writeln!(
-                x,
-                "        <DataArray type=\"Float64\" Name=\"{}\" format=\"appended\" offset=\"{off}\"/>",
-                esc(&split::step_name(&f.name, k, f.steps.len()))
-            );
-        }
-    }
-    x.push_str("      </PointData>\n      <Points>\n");
-    let flat: Vec<f64> = mesh.positions().iter().flat_map(|p| p.to_array()).collect();
-    let off = app.f64s(&flat);
-    drop(flat);
-    let _ = writeln!(
-        x,
-        "        <DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"appended\" offset=\"{off}\"/>"
-    );
-    x.push_str("      </Points>\n      <Cells>\n");
-    let off = app.push(
-        mesh.tets()
-            .iter()
-            .flatten()
-            .flat_map(|&v| (v as i64).to_le_bytes())
-            .collect::<Vec<u8>>()
-            .into_iter(),
-    );
-    let _ = writeln!(
-        x,
-        "        <DataArray type=\"Int64\" Name=\"connectivity\" format=\"appended\" offset=\"{off}\"/>"
-    );
-    let off = app.push(
-        (1..=nt as i64)
-            .flat_map(|i| (4 * i).to_le_bytes())
-            .collect::<Vec<u8>>()
-            .into_iter(),
-    );
-    let _ = writeln!(
-        x,
-        "        <DataArray type=\"Int64\" Name=\"offsets\" format=\"appended\" offset=\"{off}\"/>"
-    );
-    let off = app.push(std::iter::repeat_n(split::VTK_TETRA, nt));
-    let _ = writeln!(
-        x,
-        "        <DataArray type=\"UInt8\" Name=\"types\" format=\"appended\" offset=\"{off}\"/>"
-    );
-    x.push_str("      </Cells>\n    </Piece>\n  </UnstructuredGrid>\n  <AppendedData encoding=\"raw\">\n   _");
-
-    crate::io::atomic_write(path, |w| {
-        w.write_all(x.as_bytes())?;
-        w.write_all(&app.data)?;
-        w.write_all(b"\n  </AppendedData>\n</VTKFile>\n")
-    })
-}
-
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+    use crate::io::write_vtu;
     use crate::io::Split;
     use crate::mesh::Field;
+    use std::fmt::Write as _;
+    use std::io::Write;
 
     pub(crate) const ASCII: &str = r#"<?xml version="1.0"?>
 <VTKFile type="UnstructuredGrid" version="0.1" byte_order="LittleEndian">

@@ -25,6 +25,11 @@ pub(super) struct Layout {
     pub(super) ref_row: u32,
     pub(super) var_row: u32,
     pub(super) bar_top: u32,
+    /// Many variants are laid out in panels side by side, each with its own column heads and
+    /// first row, `rows` variants high and `panel_w` wide.
+    pub(super) panels: u32,
+    pub(super) rows: u32,
+    pub(super) panel_w: u32,
 }
 
 impl Layout {
@@ -39,26 +44,34 @@ impl Layout {
         let small = (font * 5 / 6).max(13);
         let pad = font * 2 / 3;
         let gap = 4;
-        // Variant labels break at '/' (renderer, sort, integrator), one part a line.
+        // Variant labels break at '/' (renderer, sort, integrator) and ',' (parameters), one
+        // part a line.
         let longest = variants
             .iter()
-            .flat_map(|v| v.split('/'))
+            .flat_map(|v| label_lines(v))
             .chain(["reference"])
             .map(|s| s.chars().count())
             .max()
             .unwrap_or(8) as u32;
         let left = pad + longest * font * 11 / 20 + pad;
-        let grid_w = columns.len() as u32 * (cw + pad);
-        let width = (left + grid_w + pad).max(6 * font * 11 / 10 + 500);
+        let panel_w = left + columns.len() as u32 * (cw + pad);
+        let ref_row = ch + (small + 8) + pad;
+        let var_row = 2 * ch + gap + (small + 8) + pad;
+        let head = 2 * (font + 6) + pad / 2;
+        // As few panels as keep the figure no more than 1.5 times as high as it is wide.
+        let n = variants.len().max(1) as u32;
+        let panels = (1..=n)
+            .find(|&p| 2 * (head + ref_row + n.div_ceil(p) * var_row) <= 3 * p * panel_w)
+            .unwrap_or(n);
+        let rows = n.div_ceil(panels);
+        let panels = n.div_ceil(rows);
+        let width = (panels * panel_w + pad).max(6 * font * 11 / 10 + 500);
         let title_lines = wrap(title, chars_in(width - 2 * pad, font + 2))
             .len()
             .min(2) as u32;
         let caption_lines = wrap(caption, chars_in(width - 2 * pad, small)).len().min(3) as u32;
         let top = pad + title_lines * (font + 8) + caption_lines * (small + 4) + pad;
-        let head = 2 * (font + 6) + pad / 2;
-        let ref_row = ch + (small + 8) + pad;
-        let var_row = 2 * ch + gap + (small + 8) + pad;
-        let bar_top = top + head + ref_row + variants.len() as u32 * var_row + pad;
+        let bar_top = top + head + ref_row + rows * var_row + pad;
         Layout {
             width,
             height: bar_top + 4 * (font + 6) + 2 * pad,
@@ -74,16 +87,39 @@ impl Layout {
             ref_row,
             var_row,
             bar_top,
+            panels,
+            rows,
+            panel_w,
         }
+    }
+
+    /// Left edge of panel `p`.
+    fn panel_x(&self, p: u32) -> u32 {
+        p * self.panel_w
+    }
+
+    /// Left edge of dataset `d`'s column in panel `p`.
+    fn column_x(&self, p: u32, d: usize) -> u32 {
+        self.panel_x(p) + self.left + d as u32 * (self.cw + self.pad)
     }
 
     /// Top-left corner of the picture of variant `v` (row), dataset `d` (column).
     pub(super) fn cell(&self, v: usize, d: usize) -> (u32, u32) {
+        let (p, r) = (v as u32 / self.rows, v as u32 % self.rows);
         (
-            self.left + d as u32 * (self.cw + self.pad),
-            self.top + self.head + self.ref_row + v as u32 * self.var_row,
+            self.column_x(p, d),
+            self.top + self.head + self.ref_row + r * self.var_row,
         )
     }
+}
+
+/// A variant label's lines: its parts between '/' (renderer, sort, integrator), the first also
+/// broken after its ',' (a wrapper's parameters).
+fn label_lines(v: &str) -> Vec<&str> {
+    let mut parts = v.split('/');
+    let mut lines: Vec<&str> = parts.next().unwrap_or("").split_inclusive(',').collect();
+    lines.extend(parts);
+    lines
 }
 
 pub(super) struct Page<'a> {
@@ -132,57 +168,24 @@ impl Page<'_> {
             text(line, l.pad, y, l.small, top_left)?;
             y += l.small + 4;
         }
-        // Column heads: the dataset and its size.
-        for (d, c) in self.columns.iter().enumerate() {
-            let x = l.left + d as u32 * (l.cw + l.pad) + l.cw / 2;
-            text(&c.label, x, l.top, l.font, centre)?;
-            text(
-                &format!("{} tets", crate::table::count(c.tets)),
-                x,
-                l.top + l.font + 6,
-                l.small,
-                centre,
-            )?;
-        }
-        // The reference row.
-        let y0 = l.top + l.head;
-        text(
-            &self.first_label.0,
-            l.pad,
-            y0 + l.ch / 2 - l.font,
-            l.font,
-            top_left,
-        )?;
-        text(
-            &self.first_label.1,
-            l.pad,
-            y0 + l.ch / 2 + 6,
-            l.small,
-            top_left,
-        )?;
-        for (d, c) in self.columns.iter().enumerate() {
-            let x = l.left + d as u32 * (l.cw + l.pad);
-            match &c.reference {
-                Some(r) => blit(root, r, x, y0)?,
-                None => empty(
-                    root,
-                    l,
-                    x,
-                    y0,
-                    l.ch,
-                    "no reference",
-                    "this sweep compared no image",
-                )?,
-            }
+        for p in 0..l.panels {
+            self.panel_head(root, p)?;
         }
         // One row per variant: render, error map, RMSE.
         for (v, name) in self.variants.iter().enumerate() {
             let (_, y) = l.cell(v, 0);
-            let parts: Vec<&str> = name.split('/').collect();
+            let x_label = l.panel_x(v as u32 / l.rows) + l.pad;
+            let parts = label_lines(name);
             let y_label = y + l.ch + l.gap / 2 - (parts.len() as u32 * (l.font + 4)) / 2;
             for (i, p) in parts.iter().enumerate() {
                 let size = if i == 0 { l.font } else { l.small };
-                text(p, l.pad, y_label + i as u32 * (l.font + 4), size, top_left)?;
+                text(
+                    p,
+                    x_label,
+                    y_label + i as u32 * (l.font + 4),
+                    size,
+                    top_left,
+                )?;
             }
             for (d, content) in self.grid[v].iter().enumerate() {
                 let (x, y) = l.cell(v, d);
@@ -222,6 +225,56 @@ impl Page<'_> {
             }
         }
         self.colour_bar(root)
+    }
+
+    /// A panel's column heads (the dataset and its size) and first row.
+    fn panel_head<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>, p: u32) -> DrawResult
+    where
+        DB::ErrorType: 'static,
+    {
+        let l = self.layout;
+        let text = |s: &str, x: u32, y: u32, size: u32, pos: Pos| -> DrawResult {
+            let style = ("sans-serif", size as f64)
+                .into_font()
+                .color(&BLACK)
+                .pos(pos);
+            root.draw_text(s, &style, (x as i32, y as i32))?;
+            Ok(())
+        };
+        let top_left = Pos::new(HPos::Left, VPos::Top);
+        let centre = Pos::new(HPos::Center, VPos::Top);
+        for (d, c) in self.columns.iter().enumerate() {
+            let x = l.column_x(p, d) + l.cw / 2;
+            text(&c.label, x, l.top, l.font, centre)?;
+            text(
+                &format!("{} tets", crate::table::count(c.tets)),
+                x,
+                l.top + l.font + 6,
+                l.small,
+                centre,
+            )?;
+        }
+        let y0 = l.top + l.head;
+        let x_label = l.panel_x(p) + l.pad;
+        let (name, second) = self.first_label;
+        text(name, x_label, y0 + l.ch / 2 - l.font, l.font, top_left)?;
+        text(second, x_label, y0 + l.ch / 2 + 6, l.small, top_left)?;
+        for (d, c) in self.columns.iter().enumerate() {
+            let x = l.column_x(p, d);
+            match &c.reference {
+                Some(r) => blit(root, r, x, y0)?,
+                None => empty(
+                    root,
+                    l,
+                    x,
+                    y0,
+                    l.ch,
+                    "no reference",
+                    "this sweep compared no image",
+                )?,
+            }
+        }
+        Ok(())
     }
 
     /// The shared colour bar: the ramp, a tick and label per decade, what it measures.

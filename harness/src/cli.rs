@@ -78,8 +78,10 @@ temporary name and renamed, so a failed write leaves nothing behind."
         after_help = "Example: tetbench bench harness/experiments/example.toml --out out/example
 
 Writes DIR/results.csv (one row per measurement, flushed as it finishes), DIR/pairs.csv when
-pairs are asked for, DIR/meta.txt, the plots (PNG and SVG) and, with save_images = true,
-DIR/images/. Reference images are cached in DIR/.cache by content hash. Keys: docs/experiments.md"
+pairs are asked for, DIR/meta.txt, the plots (PNG and SVG), the image figure
+DIR/results-images.png/.svg (renders and error maps of one cell, from DIR/figure/), the report
+DIR/index.html and, with save_images = true, DIR/images/. Reference images are cached in
+DIR/.cache by content hash. Keys: docs/experiments.md; figures and report: docs/report.md"
     )]
     Bench {
         /// The experiment file (TOML).
@@ -112,7 +114,8 @@ DIR/images/. Reference images are cached in DIR/.cache by content hash. Keys: do
         after_help = "Example: tetbench merge --out out/all out/shard0 out/shard1 out/shard2
 
 The shards must come from the same experiment file, the same N and the same tetbench version,
-and together hold every row exactly once; anything else is refused, naming the shard."
+and together hold every row exactly once; anything else is refused, naming the shard. The
+merge also draws the image figure (results-images.png/.svg) and writes DIR/index.html."
     )]
     Merge {
         /// Output directory for the merged results.csv and plots.
@@ -131,7 +134,8 @@ and together hold every row exactly once; anything else is refused, naming the s
           tetbench reproduce --only jbu --out results
 
 Each table is written as DIR/<table>.csv and DIR/<table>.md beside the paper's figures, with
-its plots; raw measurements under DIR/raw/<table>/. Tables whose renderers are not registered
+its plots and its image figure DIR/<table>-images.png/.svg; raw measurements under
+DIR/raw/<table>/. DIR/index.html is the report of every table (docs/report.md). Tables whose renderers are not registered
 yet are skipped with a note in DIR/README.md. The joint bilateral upsampling study is the
 table `jbu` (`--only jbu`; there is no separate `tetbench jbu` command); BCC's are `bcc_pt`
 and `bcc_reconstruction`.")]

@@ -96,15 +96,26 @@ pub(crate) fn ray_casters(preint_too: bool) -> Vec<RendererSpec> {
         .collect()
 }
 
-/// Meshes above this many tets get no row from a peer in the speed tables: VTK's mappers on
-/// llvmpipe take seconds (ZSweep tens of seconds) a 512² frame at 200K tets.
+/// Meshes above this many tets get no row from a declared peer in the speed tables (another
+/// program, whose frame time is unknown here).
 pub(crate) const EXTERNAL_MAX_TETS: usize = 600_000;
+
+/// VTK's mappers' own limits in the speed tables: `vtk-pt` and `vtk-raycast` run on every
+/// dataset; a 512² frame of VTK's ZSweep mapper on llvmpipe (2 cores, VTK 9) takes about 11 s
+/// at 297K tets but grows faster than the tets (140 s at spx2's 824K, cores shared), so it
+/// stays under a minute up to about 300K tets (spx, blunt, comb are in; post, spx2, fuel, brain
+/// are not).
+pub(crate) const VTK_MAX_TETS: &[(&str, Option<usize>)] = &[
+    ("vtk-pt", None),
+    ("vtk-raycast", None),
+    ("vtk-zsweep", Some(300_000)),
+];
 
 /// The peers that join the PT and ray-casting speed tables: every renderer the registry files
 /// under [`Family::External`] — VTK's mappers and the declared peers — whose declared family is
 /// `pt` or `raycasting` (an `other` peer runs only when named), with its default integrator,
 /// and only those that can run here (the VTK ones need `TETBENCH_VTK_PYTHON`), so a run
-/// without them is unchanged.
+/// without them is unchanged. Each is capped by [`peer_max_tets`].
 pub(crate) fn external_peers() -> Vec<RendererSpec> {
     render::family(Family::External)
         .into_iter()
@@ -117,34 +128,61 @@ pub(crate) fn external_peers() -> Vec<RendererSpec> {
         .filter(|i| render::make(i.name, &Default::default()).is_ok())
         .filter_map(|i| want(i.name, &[], &[i.default_integrator]))
         .map(|mut r| {
-            r.max_tets = Some(EXTERNAL_MAX_TETS);
+            r.max_tets = peer_max_tets(&r.name);
             r
         })
         .collect()
 }
 
-/// A table note naming the peers in the run, or saying how to add them.
+/// The largest mesh a peer gets in the speed tables: VTK's mappers' own limits
+/// ([`VTK_MAX_TETS`]), [`EXTERNAL_MAX_TETS`] for a declared peer.
+pub(crate) fn peer_max_tets(name: &str) -> Option<usize> {
+    VTK_MAX_TETS
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map_or(Some(EXTERNAL_MAX_TETS), |&(_, m)| m)
+}
+
+/// A table note naming the peers in the run and their mesh limits, or saying how to add them.
 pub(crate) fn external_note() -> String {
     let all: Vec<&str> = render::family(Family::External)
         .iter()
         .map(|i| i.name)
         .collect();
-    let run: Vec<String> = external_peers().into_iter().map(|r| r.name).collect();
+    let run: Vec<RendererSpec> = external_peers();
     if run.is_empty() {
-        format!(
+        return format!(
             "Peers ({}) not in this run: {}; declared peers (docs/peers.md) join with --peers FILE.",
             all.join(", "),
             render::vtk::HOW_TO_ENABLE
-        )
-    } else {
-        format!(
-            "Peers: {} (other programs over the peer protocol: VTK's mappers, docs/vtk.md, and \
-             declared peers, docs/peers.md; default integrators, meshes up to {} tets), measured \
-             like ours: the peer's own stage times, bytes = its peak RSS.",
-            run.join(", "),
-            EXTERNAL_MAX_TETS
-        )
+        );
     }
+    let names: Vec<&str> = run.iter().map(|r| r.name.as_str()).collect();
+    let mut n = format!(
+        "Peers: {} (other programs over the peer protocol: VTK's mappers, docs/vtk.md, and \
+         declared peers, docs/peers.md; default integrators), measured like ours: the peer's own \
+         stage times, bytes = its peak RSS.",
+        names.join(", ")
+    );
+    let every: Vec<&str> = run
+        .iter()
+        .filter(|r| r.max_tets.is_none())
+        .map(|r| r.name.as_str())
+        .collect();
+    if !every.is_empty() {
+        n.push_str(&format!(" On every dataset: {}.", every.join(", ")));
+    }
+    for r in &run {
+        if let Some(m) = r.max_tets {
+            n.push_str(&format!(" {} on meshes up to {m} tets", r.name));
+            n.push_str(if r.name == "vtk-zsweep" {
+                " (where its 512² frame stays under a minute: about 11 s at 297K tets on llvmpipe, 140 s at 824K)."
+            } else {
+                "."
+            });
+        }
+    }
+    n
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -248,7 +286,14 @@ pub(crate) fn common_notes(ctx: &Ctx, cfg: &Config) -> Vec<String> {
             if ctx.quick { "a quick run must stay short" } else { "no data was downloaded" }
         ));
     }
-    if let Some(cap) = cfg.renderers.iter().find_map(|r| r.max_tets) {
+    // The GPU renderers' cap on a software adapter (the external peers' caps have their own
+    // note).
+    let gpu_cap = cfg
+        .renderers
+        .iter()
+        .filter(|r| render::info(&r.name).is_ok_and(|i| i.needs_gpu))
+        .find_map(|r| r.max_tets);
+    if let Some(cap) = gpu_cap {
         n.push(format!("The GPU adapter is a software rasteriser (see README.md): the ptint and hapt rows of the papers' direct volume rendering variants are measured on meshes up to {cap} tets only (HAPT Table 2's ISO and DVR+ISO rows on all), and their rates say what the algorithms cost on a CPU emulating a GPU, not GPU speed. Rerun on a real GPU for the other rows."));
     }
     n
@@ -445,7 +490,12 @@ mod tests {
         let enabled = render::vtk::python().is_ok();
         let names: Vec<&str> = peers.iter().map(|r| r.name.as_str()).collect();
         assert_eq!(names, if enabled { ext.clone() } else { vec![] });
-        assert!(peers.iter().all(|r| r.max_tets == Some(EXTERNAL_MAX_TETS)));
+        for r in &peers {
+            let want = (r.name == "vtk-zsweep").then_some(300_000);
+            assert_eq!(r.max_tets, want, "{}", r.name);
+        }
+        // A declared peer (another program) keeps the general cap.
+        assert_eq!(peer_max_tets("my-peer"), Some(EXTERNAL_MAX_TETS));
         let note = external_note();
         assert!(
             note.contains(if enabled {

@@ -223,8 +223,8 @@ pub fn draw(rows: &[Row], data: &Path, stem: &Path, title: &str) -> Result<Optio
                         }) {
                             Some((e, w, h)) => {
                                 let p = keep::variant_file(data, d, v, "error.png");
-                                let full = pixels::false_colour(&e, w, h, Scale::Up(1), &scale);
-                                write_rgb(&full, &p)?;
+                                let idx = pixels::error_indices(&e, &scale);
+                                pixels::write_png(&p, (w, h), &idx, Some(pixels::palette()))?;
                                 err_link = Some(rel(&p));
                                 Some(pixels::false_colour(&e, w, h, factor, &scale))
                             }
@@ -374,7 +374,7 @@ fn sci(v: f64) -> String {
 
 /// Writes an RGB picture as an 8-bit PNG (through a temporary file).
 fn write_rgb(rgb: &Rgb, path: &Path) -> Result<()> {
-    pixels::to_image(rgb).write(path)
+    pixels::write_png(path, (rgb.width, rgb.height), &rgb.data, None)
 }
 
 /// Draws into a hidden temporary sibling and renames it into place: a failure (a full disk)

@@ -83,18 +83,37 @@ impl LogScale {
         ((e.log10() - self.lo.log10()) / (self.hi.log10() - self.lo.log10())).clamp(0.0, 1.0)
     }
 
-    /// The false colour of `e` (viridis); black for an exact zero.
-    pub fn colour(&self, e: f64) -> [u8; 3] {
+    /// The palette index of `e`: 0 (black) for an exact zero, else 1 + its position on the
+    /// ramp in 255 steps.
+    pub fn index(&self, e: f64) -> u8 {
         if e == 0.0 {
-            return [0, 0, 0];
+            return 0;
         }
-        ramp(self.position(e))
+        1 + (self.position(e) * 254.0).round() as u8
+    }
+
+    /// The false colour of `e` (viridis, [`palette`]); black for an exact zero.
+    pub fn colour(&self, e: f64) -> [u8; 3] {
+        let i = self.index(e) as usize;
+        match i {
+            0 => [0, 0, 0],
+            _ => ramp((i - 1) as f64 / 254.0),
+        }
     }
 
     /// The decade exponents from `lo` to `hi`.
     pub fn decades(&self) -> std::ops::RangeInclusive<i32> {
         (self.lo.log10().round() as i32)..=(self.hi.log10().round() as i32)
     }
+}
+
+/// The error maps' 256 colours: black, then viridis in 255 steps ([`LogScale::index`]).
+pub fn palette() -> Vec<u8> {
+    let mut p = vec![0, 0, 0];
+    for i in 0..255 {
+        p.extend(ramp(i as f64 / 254.0));
+    }
+    p
 }
 
 /// Viridis at `t` in [0, 1].
@@ -204,18 +223,34 @@ pub fn false_colour(err: &[f32], width: u32, height: u32, scale: Scale, s: &LogS
     }
 }
 
-/// An [`Rgb`] as an opaque [`Image`] (to be written as PNG by [`Image::write`]).
-pub fn to_image(rgb: &Rgb) -> Image {
-    Image {
-        width: rgb.width,
-        height: rgb.height,
-        pixels: rgb
-            .data
-            .chunks_exact(3)
-            .map(|c| [c[0], c[1], c[2]].map(|v| v as f32 / 255.0))
-            .map(|[r, g, b]| [r, g, b, 1.0])
-            .collect(),
-    }
+/// An error map at 1:1 as palette indices ([`palette`]): a PNG of them is a sixth of the size
+/// of the same colours as RGB.
+pub fn error_indices(err: &[f32], s: &LogScale) -> Vec<u8> {
+    err.iter().map(|&e| s.index(e as f64)).collect()
+}
+
+/// Writes an 8-bit PNG through a temporary file: RGB (`palette` None, 3 bytes a pixel) or
+/// indexed (one byte a pixel into `palette`).
+pub fn write_png(
+    path: &std::path::Path,
+    (width, height): (u32, u32),
+    data: &[u8],
+    palette: Option<Vec<u8>>,
+) -> algorithms::Result<()> {
+    algorithms::io::atomic_write(path, |out| {
+        let mut enc = png::Encoder::new(out, width, height);
+        enc.set_depth(png::BitDepth::Eight);
+        match palette {
+            Some(p) => {
+                enc.set_color(png::ColorType::Indexed);
+                enc.set_palette(p);
+            }
+            None => enc.set_color(png::ColorType::Rgb),
+        }
+        let mut w = enc.write_header().map_err(std::io::Error::other)?;
+        w.write_image_data(data).map_err(std::io::Error::other)?;
+        w.finish().map_err(std::io::Error::other)
+    })
 }
 
 #[cfg(test)]

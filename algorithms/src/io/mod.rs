@@ -44,10 +44,12 @@ pub struct LoadOptions {
     pub one_based: bool,
 }
 
+pub mod fields;
 pub mod off;
 pub mod plot3d;
 pub mod split;
 pub mod vtk;
+pub mod vtk_types;
 pub mod vtu;
 pub mod writers;
 

@@ -1,6 +1,5 @@
-//! What the `.vtk`, `.vtu` and PLOT3D readers share: splitting hexahedra (structured and
-//! unstructured), wedges and pyramids into tetrahedra, VTK numeric types, and turning point
-//! arrays into named fields (with `name_t000`, `name_t001`, … grouped as time steps).
+//! Splitting cells into tetrahedra, which the `.vtk`, `.vtu` and PLOT3D readers share:
+//! hexahedra (structured and unstructured), wedges and pyramids, and the cell arrays' offsets.
 //!
 //! Conformity: neighbouring cells must split a shared quad face along the same diagonal.
 //! - Structured grids: 5 tets per hex, mirrored on cells of odd `i + j + k` (the two
@@ -19,40 +18,11 @@
 use glam::DVec3;
 
 use crate::error::{Error, Result};
+use crate::io::vtk_types::{
+    cell_type_name, VTK_HEXAHEDRON, VTK_PYRAMID, VTK_TETRA, VTK_VOXEL, VTK_WEDGE,
+};
 use crate::io::Split;
-use crate::mesh::{signed_volume6, Field};
-
-pub const VTK_TETRA: u8 = 10;
-pub const VTK_VOXEL: u8 = 11;
-pub const VTK_HEXAHEDRON: u8 = 12;
-pub const VTK_WEDGE: u8 = 13;
-pub const VTK_PYRAMID: u8 = 14;
-
-/// Name of a VTK cell type id, for messages.
-pub fn cell_type_name(t: i64) -> &'static str {
-    match t {
-        1 => "vertex",
-        2 => "poly-vertex",
-        3 => "line",
-        4 => "poly-line",
-        5 => "triangle",
-        6 => "triangle strip",
-        7 => "polygon",
-        8 => "pixel",
-        9 => "quad",
-        10 => "tetra",
-        11 => "voxel",
-        12 => "hexahedron",
-        13 => "wedge",
-        14 => "pyramid",
-        15 => "pentagonal prism",
-        16 => "hexagonal prism",
-        21..=33 => "quadratic cell",
-        42 => "polyhedron",
-        60..=80 => "higher-order cell",
-        _ => "unknown",
-    }
-}
+use crate::mesh::signed_volume6;
 
 fn corners_for(t: u8) -> Option<usize> {
     match t {
@@ -350,127 +320,6 @@ fn split_hex(p: &mut Vec<DVec3>, arrays: &mut [Vec<f64>], h: [u32; 8], out: &mut
     }
 }
 
-// ---------------------------------------------------------------------------------------------
-// Numeric types shared by the VTK readers.
-
-/// A VTK numeric type.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum DType {
-    I8,
-    U8,
-    I16,
-    U16,
-    I32,
-    U32,
-    I64,
-    U64,
-    F32,
-    F64,
-}
-
-impl DType {
-    pub fn size(self) -> usize {
-        match self {
-            DType::I8 | DType::U8 => 1,
-            DType::I16 | DType::U16 => 2,
-            DType::I32 | DType::U32 | DType::F32 => 4,
-            DType::I64 | DType::U64 | DType::F64 => 8,
-        }
-    }
-    pub fn is_float(self) -> bool {
-        matches!(self, DType::F32 | DType::F64)
-    }
-    /// XML names (`Float32`, `Int64`, …).
-    pub fn from_xml(s: &str) -> Option<DType> {
-        Some(match s {
-            "Int8" => DType::I8,
-            "UInt8" => DType::U8,
-            "Int16" => DType::I16,
-            "UInt16" => DType::U16,
-            "Int32" => DType::I32,
-            "UInt32" => DType::U32,
-            "Int64" => DType::I64,
-            "UInt64" => DType::U64,
-            "Float32" => DType::F32,
-            "Float64" => DType::F64,
-            _ => return None,
-        })
-    }
-    /// Legacy names (`float`, `vtktypeint64`, …), case-insensitive.
-    pub fn from_legacy(s: &str) -> Option<DType> {
-        Some(match s.to_ascii_lowercase().as_str() {
-            "char" | "signed_char" | "vtktypeint8" => DType::I8,
-            "unsigned_char" | "vtktypeuint8" => DType::U8,
-            "short" | "vtktypeint16" => DType::I16,
-            "unsigned_short" | "vtktypeuint16" => DType::U16,
-            "int" | "vtktypeint32" => DType::I32,
-            "unsigned_int" | "vtktypeuint32" => DType::U32,
-            "long" | "vtktypeint64" | "vtkidtype" | "long_long" => DType::I64,
-            "unsigned_long" | "vtktypeuint64" | "unsigned_long_long" => DType::U64,
-            "float" | "vtktypefloat32" => DType::F32,
-            "double" | "vtktypefloat64" => DType::F64,
-            _ => return None,
-        })
-    }
-}
-
-fn word<const N: usize>(b: &[u8], big: bool) -> [u8; N] {
-    let mut w = [0u8; N];
-    w.copy_from_slice(&b[..N]);
-    if big {
-        w.reverse();
-    }
-    w
-}
-
-/// Decodes `bytes` (a whole number of values) as f64.
-pub fn decode_f64(bytes: &[u8], ty: DType, big: bool) -> Vec<f64> {
-    let s = ty.size();
-    bytes
-        .chunks_exact(s)
-        .map(|c| match ty {
-            DType::I8 => c[0] as i8 as f64,
-            DType::U8 => c[0] as f64,
-            DType::I16 => i16::from_le_bytes(word(c, big)) as f64,
-            DType::U16 => u16::from_le_bytes(word(c, big)) as f64,
-            DType::I32 => i32::from_le_bytes(word(c, big)) as f64,
-            DType::U32 => u32::from_le_bytes(word(c, big)) as f64,
-            DType::I64 => i64::from_le_bytes(word(c, big)) as f64,
-            DType::U64 => u64::from_le_bytes(word(c, big)) as f64,
-            DType::F32 => f32::from_le_bytes(word(c, big)) as f64,
-            DType::F64 => f64::from_le_bytes(word(c, big)),
-        })
-        .collect()
-}
-
-/// Decodes `bytes` as integers; float types and values past `i64::MAX` are refused.
-pub fn decode_i64(bytes: &[u8], ty: DType, big: bool) -> std::result::Result<Vec<i64>, String> {
-    if ty.is_float() {
-        return Err(format!(
-            "has a floating-point type ({ty:?}) where integers are needed"
-        ));
-    }
-    let s = ty.size();
-    bytes
-        .chunks_exact(s)
-        .map(|c| {
-            Ok(match ty {
-                DType::I8 => c[0] as i8 as i64,
-                DType::U8 => c[0] as i64,
-                DType::I16 => i16::from_le_bytes(word(c, big)) as i64,
-                DType::U16 => u16::from_le_bytes(word(c, big)) as i64,
-                DType::I32 => i32::from_le_bytes(word(c, big)) as i64,
-                DType::U32 => u32::from_le_bytes(word(c, big)) as i64,
-                DType::I64 => i64::from_le_bytes(word(c, big)),
-                _ => {
-                    let v = u64::from_le_bytes(word(c, big));
-                    i64::try_from(v).map_err(|_| format!("integer {v} out of range"))?
-                }
-            })
-        })
-        .collect()
-}
-
 /// Turns `[0, n0, n0 + n1, …]`-style end offsets into validated start/end offsets: `ends` are
 /// the VTK XML (and legacy 5.1 without the leading 0) cell end offsets.
 pub fn offsets_from_ends(
@@ -495,139 +344,6 @@ pub fn offsets_from_ends(
         out.push(e as usize);
     }
     Ok(out)
-}
-
-// ---------------------------------------------------------------------------------------------
-// Point arrays → fields.
-
-/// `name_t012` → (`name`, 12).
-fn time_step_name(name: &str) -> Option<(&str, usize)> {
-    let i = name.rfind("_t")?;
-    let digits = &name[i + 2..];
-    if i == 0
-        || digits.is_empty()
-        || digits.len() > 9
-        || !digits.bytes().all(|b| b.is_ascii_digit())
-    {
-        return None;
-    }
-    Some((&name[..i], digits.parse().ok()?))
-}
-
-/// The array name a writer gives step `k` of a field with `n` steps.
-pub fn step_name(name: &str, k: usize, n: usize) -> String {
-    if n <= 1 {
-        return name.to_string();
-    }
-    let width = (n - 1).to_string().len().max(3);
-    format!("{name}_t{k:0width$}")
-}
-
-/// Named 1-component point arrays, in file order, to fields: names repeated get a `_2`, `_3`…
-/// suffix; two or more arrays `base_t000`, `base_t001`, … numbered 0..n without gaps become one
-/// field `base` with n time steps, placed where its first step was.
-pub fn make_fields(arrays: Vec<(String, Vec<f64>)>) -> Vec<Field> {
-    let mut named: Vec<(String, Vec<f64>)> = Vec::with_capacity(arrays.len());
-    for (name, v) in arrays {
-        let mut n = name.clone();
-        let mut k = 2;
-        while named.iter().any(|(m, _)| *m == n) {
-            n = format!("{name}_{k}");
-            k += 1;
-        }
-        named.push((n, v));
-    }
-    // Which bases form complete step sequences?
-    let mut groups: Vec<(String, Vec<usize>)> = Vec::new();
-    for (i, (name, _)) in named.iter().enumerate() {
-        if let Some((base, _)) = time_step_name(name) {
-            match groups.iter_mut().find(|(b, _)| b == base) {
-                Some(g) => g.1.push(i),
-                None => groups.push((base.to_string(), vec![i])),
-            }
-        }
-    }
-    let mut grouped: Vec<Option<usize>> = vec![None; named.len()]; // array → group index
-    let mut good: Vec<(String, Vec<usize>)> = Vec::new();
-    for (base, members) in groups {
-        let mut steps: Vec<(usize, usize)> = members
-            .iter()
-            .map(|&i| (time_step_name(&named[i].0).map_or(0, |x| x.1), i))
-            .collect();
-        steps.sort_unstable();
-        let complete = steps.len() >= 2
-            && steps.iter().enumerate().all(|(k, &(s, _))| s == k)
-            && !named.iter().any(|(n, _)| *n == base);
-        if complete {
-            for &(_, i) in &steps {
-                grouped[i] = Some(good.len());
-            }
-            good.push((base, steps.into_iter().map(|(_, i)| i).collect()));
-        }
-    }
-    let mut values: Vec<Option<Vec<f64>>> = named
-        .iter_mut()
-        .map(|(_, v)| Some(std::mem::take(v)))
-        .collect();
-    let mut fields = Vec::new();
-    for i in 0..named.len() {
-        match grouped[i] {
-            None => fields.push(Field {
-                name: named[i].0.clone(),
-                steps: vec![values[i].take().unwrap_or_default()],
-            }),
-            // A group goes where its first array (in file order) was.
-            Some(g) if good[g].1.iter().min() == Some(&i) => {
-                let steps = good[g]
-                    .1
-                    .iter()
-                    .map(|&j| values[j].take().unwrap_or_default())
-                    .collect();
-                fields.push(Field {
-                    name: good[g].0.clone(),
-                    steps,
-                });
-            }
-            Some(_) => {}
-        }
-    }
-    fields
-}
-
-/// Finds a field by name, also as `base_tNNN` for step NNN of a field with steps.
-pub fn find_field(fields: &[Field], name: &str) -> Option<(String, usize)> {
-    if let Some(f) = fields.iter().find(|f| f.name == name) {
-        return Some((f.name.clone(), 0));
-    }
-    let (base, k) = time_step_name(name)?;
-    fields
-        .iter()
-        .find(|f| f.name == base && f.steps.len() > k)
-        .map(|f| (f.name.clone(), k))
-}
-
-/// Makes `wanted` (the user's choice: refused when unknown) or else `default` (the file's
-/// choice: ignored when unknown) the active field.
-pub fn select_active(
-    mesh: &mut crate::mesh::Mesh,
-    source: &str,
-    wanted: Option<&str>,
-    default: Option<&str>,
-) -> Result<()> {
-    if let Some(w) = wanted {
-        let Some((name, k)) = find_field(mesh.fields(), w) else {
-            let known: Vec<&str> = mesh.fields().iter().map(|f| f.name.as_str()).collect();
-            return Err(Error::input(
-                source,
-                format!("no point field '{w}' (fields: {})", known.join(", ")),
-            ));
-        };
-        return mesh.select_field(&name, k);
-    }
-    if let Some((name, k)) = default.and_then(|d| find_field(mesh.fields(), d)) {
-        mesh.select_field(&name, k)?;
-    }
-    Ok(())
 }
 
 #[cfg(test)]
@@ -774,25 +490,5 @@ mod tests {
         assert!(e.to_string().contains("out of range"), "{e}");
         let e = split_cells("m", &[10], &[0, 3], &[0, 1, 2], &mut p, &mut [], None).unwrap_err();
         assert!(e.to_string().contains("expected 4"), "{e}");
-    }
-
-    #[test]
-    fn time_steps_are_grouped() {
-        let a = |n: &str, v: f64| (n.to_string(), vec![v]);
-        let f = make_fields(vec![
-            a("p", 0.0),
-            a("T_t001", 2.0),
-            a("T_t000", 1.0),
-            a("q_t000", 3.0),
-            a("p", 4.0),
-            a("r_t000", 5.0),
-            a("r_t002", 6.0),
-        ]);
-        let names: Vec<&str> = f.iter().map(|f| f.name.as_str()).collect();
-        assert_eq!(names, ["p", "T", "q_t000", "p_2", "r_t000", "r_t002"]);
-        assert_eq!(f[1].steps, vec![vec![1.0], vec![2.0]]);
-        assert_eq!(step_name("T", 1, 2), "T_t001");
-        assert_eq!(step_name("T", 0, 1), "T");
-        assert_eq!(find_field(&f, "T_t001"), Some(("T".into(), 1)));
     }
 }

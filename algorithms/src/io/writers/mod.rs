@@ -47,7 +47,7 @@ pub(crate) fn active_name(mesh: &Mesh) -> String {
         .iter()
         .find(|f| f.name == active)
         .map_or(1, |f| f.steps.len());
-    crate::io::split::step_name(active, step, steps)
+    crate::io::fields::step_name(active, step, steps)
 }
 
 #[cfg(test)]

@@ -11,7 +11,7 @@ use std::io::Write;
 use std::path::Path;
 
 use crate::error::Result;
-use crate::io::split;
+use crate::io::{fields, vtk_types};
 use crate::mesh::Mesh;
 
 /// A name as a legacy file holds it: bytes outside `!`..`~`, and `%`, as `%XX` (what VTK's
@@ -49,7 +49,7 @@ pub fn write_vtk(mesh: &Mesh, path: &Path) -> Result<()> {
             f.steps
                 .iter()
                 .enumerate()
-                .map(|(k, s)| (split::step_name(&f.name, k, f.steps.len()), s.as_slice()))
+                .map(|(k, s)| (fields::step_name(&f.name, k, f.steps.len()), s.as_slice()))
         })
         .collect();
     let at = arrays.iter().position(|(name, _)| *name == active);
@@ -86,7 +86,7 @@ pub fn write_vtk(mesh: &Mesh, path: &Path) -> Result<()> {
         writeln!(w)?;
         writeln!(w, "CELL_TYPES {nt}")?;
         for _ in 0..nt {
-            w.write_all(&(split::VTK_TETRA as i32).to_be_bytes())?;
+            w.write_all(&(vtk_types::VTK_TETRA as i32).to_be_bytes())?;
         }
         writeln!(w)?;
         writeln!(w, "POINT_DATA {n}")?;

@@ -10,7 +10,7 @@ use std::io::Write;
 use std::path::Path;
 
 use crate::error::Result;
-use crate::io::split;
+use crate::io::{fields, vtk_types};
 use crate::mesh::Mesh;
 
 /// XML-escapes an attribute value.
@@ -80,7 +80,7 @@ pub fn write_vtu(mesh: &Mesh, path: &Path) -> Result<()> {
             let _ = writeln!(
                 x,
                 "        <DataArray type=\"Float64\" Name=\"{}\" format=\"appended\" offset=\"{}\"/>",
-                esc(&split::step_name(&f.name, k, f.steps.len())),
+                esc(&fields::step_name(&f.name, k, f.steps.len())),
                 off.next(8 * n)
             );
         }
@@ -137,7 +137,7 @@ pub fn write_vtu(mesh: &Mesh, path: &Path) -> Result<()> {
         }
         w.write_all(&nt.to_le_bytes())?;
         for _ in 0..nt {
-            w.write_all(&[split::VTK_TETRA])?;
+            w.write_all(&[vtk_types::VTK_TETRA])?;
         }
         w.write_all(b"\n  </AppendedData>\n</VTKFile>\n")
     })

@@ -5,6 +5,8 @@
 //! steps; one (field, step) pair is active at a time. Derived data — bounding box, scalar range,
 //! signed volumes, face adjacency, boundary faces, degenerate count, convexity — is computed on
 //! first use and cached; the adjacency is shared by MPVONC and the ray caster.
+//!
+//! Past 600 lines only with its tests (about 520 lines of code): the mesh is one type.
 
 use std::collections::BTreeMap;
 use std::sync::OnceLock;

@@ -1,6 +1,7 @@
 //! What every plugin kind (renderer, sort, integrator) shares, after Mitsuba's plugin
-//! registries: the documented parameters a plugin declares in its info record, and the checks
-//! of names against a registry ("did you mean …" for misspelled names).
+//! registries: the documented parameters a plugin declares in its info record, read through
+//! [`Params`], and the checks of names against a registry ("did you mean …" for misspelled
+//! names).
 
 use crate::error::{Error, Result};
 
@@ -37,6 +38,159 @@ pub fn check_params(owner: &str, declared: &[ParamInfo], given: &[(String, Strin
         }
     }
     Ok(())
+}
+
+/// A plugin's parameters as given (`KEY=VALUE`), checked once against the declared ones, with
+/// typed getters whose defaults come from the plugin's [`ParamInfo`] (pbrt-v4's
+/// `ParameterDictionary`): a plugin never writes a default or parses a value by hand. A value
+/// that does not parse is one line, `"{owner}: parameter {key}={value}: expected …"`.
+#[derive(Clone, Debug)]
+pub struct Params {
+    owner: String,
+    declared: &'static [ParamInfo],
+    given: Vec<(String, String)>,
+}
+
+impl Params {
+    /// Checks `given` against `declared` ([`check_params`]: every key declared, none twice);
+    /// `owner` names the plugin in messages.
+    pub fn new(
+        owner: &str,
+        declared: &'static [ParamInfo],
+        given: &[(String, String)],
+    ) -> Result<Params> {
+        check_params(owner, declared, given)?;
+        Ok(Params {
+            owner: owner.to_string(),
+            declared,
+            given: given.to_vec(),
+        })
+    }
+
+    /// The text of `key`: the given value, else the declared default. Panics on a key the
+    /// plugin did not declare (a bug in the plugin, never bad input).
+    pub fn text(&self, key: &str) -> &str {
+        let info = self
+            .declared
+            .iter()
+            .find(|p| p.name == key)
+            .unwrap_or_else(|| panic!("{}: parameter '{key}' is not declared", self.owner));
+        self.given
+            .iter()
+            .find(|(k, _)| k == key)
+            .map_or(info.default, |(_, v)| v.as_str())
+    }
+
+    /// Whether `key` has a value, given or by default (a default of `""` means "off").
+    pub fn is_set(&self, key: &str) -> bool {
+        !self.text(key).is_empty()
+    }
+
+    /// The error for `key`'s value: `what` says what was expected.
+    pub fn bad(&self, key: &str, what: &str) -> Error {
+        Error::Input(format!(
+            "{}: parameter {key}={}: {what}",
+            self.owner,
+            self.text(key)
+        ))
+    }
+
+    /// `key` as one of `choices` (name, value).
+    pub fn choice<T: Copy>(&self, key: &str, choices: &[(&str, T)]) -> Result<T> {
+        let v = self.text(key);
+        choices
+            .iter()
+            .find(|(n, _)| *n == v)
+            .map(|c| c.1)
+            .ok_or_else(|| {
+                let names: Vec<&str> = choices.iter().map(|c| c.0).collect();
+                self.bad(key, &format!("expected one of {}", names.join(", ")))
+            })
+    }
+
+    /// `key` as a number in `range`.
+    pub fn f64_in(&self, key: &str, range: std::ops::RangeInclusive<f64>) -> Result<f64> {
+        self.text(key)
+            .trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|v| range.contains(v))
+            .ok_or_else(|| {
+                self.bad(
+                    key,
+                    &format!("expected a number in [{}, {}]", range.start(), range.end()),
+                )
+            })
+    }
+
+    /// `key` as a finite number above 0.
+    pub fn positive_f64(&self, key: &str) -> Result<f64> {
+        self.text(key)
+            .trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite() && *v > 0.0)
+            .ok_or_else(|| self.bad(key, "expected a positive number"))
+    }
+
+    /// `key` as an integer in `range`.
+    pub fn usize_in(&self, key: &str, range: std::ops::RangeInclusive<usize>) -> Result<usize> {
+        self.text(key)
+            .trim()
+            .parse::<usize>()
+            .ok()
+            .filter(|v| range.contains(v))
+            .ok_or_else(|| {
+                self.bad(
+                    key,
+                    &format!("expected an integer in {}..={}", range.start(), range.end()),
+                )
+            })
+    }
+
+    /// `key` as an integer in `range`, or `None` when it is not set.
+    pub fn opt_usize_in(
+        &self,
+        key: &str,
+        range: std::ops::RangeInclusive<usize>,
+    ) -> Result<Option<usize>> {
+        if !self.is_set(key) {
+            return Ok(None);
+        }
+        self.usize_in(key, range).map(Some)
+    }
+
+    /// `key` as a switch: `1`/`true` or `0`/`false`.
+    pub fn flag(&self, key: &str) -> Result<bool> {
+        self.choice(
+            key,
+            &[("1", true), ("true", true), ("0", false), ("false", false)],
+        )
+    }
+
+    /// `key` as a comma-separated list of 1 to `max` items, each read by `item`; empty when
+    /// it is not set. `what` describes an item for the message.
+    pub fn list<T>(
+        &self,
+        key: &str,
+        max: usize,
+        what: &str,
+        item: impl Fn(&str) -> Option<T>,
+    ) -> Result<Vec<T>> {
+        if !self.is_set(key) {
+            return Ok(Vec::new());
+        }
+        let v = self
+            .text(key)
+            .split(',')
+            .map(|x| item(x.trim()))
+            .collect::<Option<Vec<T>>>()
+            .ok_or_else(|| self.bad(key, &format!("expected a comma-separated list of {what}")))?;
+        if v.len() > max {
+            return Err(self.bad(key, &format!("1 to {max} values")));
+        }
+        Ok(v)
+    }
 }
 
 /// Edit distance between two strings, by characters: insertions, deletions, substitutions and

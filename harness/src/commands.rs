@@ -554,11 +554,12 @@ fn render_cmd(args: &RenderArgs) -> Result<()> {
 
     let t = frame.times;
     let tets = mesh.num_tets() as f64;
+    let (d, memory) = (renderer.describe(), renderer.memory());
     let mut pairs = vec![
-        ("renderer", json!(renderer.name())),
-        ("sort", json!(renderer.sort_name())),
-        ("integrator", json!(renderer.integrator_name())),
-        ("device", json!(renderer.device())),
+        ("renderer", json!(d.name)),
+        ("sort", json!(d.sort)),
+        ("integrator", json!(d.integrator)),
+        ("device", json!(d.device)),
         ("tets", json!(mesh.num_tets())),
         ("width", json!(w)),
         ("height", json!(h)),
@@ -572,7 +573,7 @@ fn render_cmd(args: &RenderArgs) -> Result<()> {
         (
             "cpu_bytes_per_tet",
             // An external renderer (VTK): its helper process's peak RSS.
-            if let Some(b) = renderer.external_bytes() {
+            if let Some(b) = memory.external_bytes {
                 num(b as f64 / tets)
             } else if alloc::is_counting() {
                 num(bytes as f64 / tets)
@@ -580,7 +581,7 @@ fn render_cmd(args: &RenderArgs) -> Result<()> {
                 json!("not measured")
             },
         ),
-        ("gpu_bytes_per_tet", num(renderer.gpu_bytes() as f64 / tets)),
+        ("gpu_bytes_per_tet", num(memory.gpu_bytes as f64 / tets)),
         // The fixed cost kept apart from cpu_bytes_per_tet (CONVENTIONS §7).
         (
             "shared_fixed_bytes",

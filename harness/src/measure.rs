@@ -7,10 +7,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use algorithms::camera::Camera;
-use algorithms::gpu::Gpu;
 use algorithms::image::Image;
-use algorithms::optics::PsiTable;
-use algorithms::render::{self, Frame, FrameTimes, Renderer};
+use algorithms::render::{Frame, FrameTimes, Renderer};
 use algorithms::{util::alloc, Mesh, Result};
 
 use crate::stats;
@@ -25,35 +23,19 @@ pub fn interrupted() -> bool {
     INTERRUPTED.load(Ordering::Relaxed)
 }
 
-/// Builds the process-wide state that the first `prepare` of a run would otherwise build, and
-/// be counted for: rayon's threads, the shared Ψ table and, for `renderer` when it needs one,
-/// the GPU context. They are fixed costs independent of the mesh, which CONVENTIONS §7 reports
-/// apart from `cpu_bytes_per_tet` ([`shared_fixed_bytes`]). Counted in whichever variant came
-/// first, they made its bytes per tet depend on the order of the variants (the Ψ table alone is
-/// 1 MiB: ~80 B a tet of the 13K-tet spx).
-fn warm_shared(renderer: &str) {
-    rayon::broadcast(|_| ());
-    let _ = PsiTable::shared();
-    if render::info(renderer).is_ok_and(|i| i.needs_gpu) {
-        // No GPU is the renderer's own `prepare` error to report.
-        let _ = Gpu::shared();
-    }
-}
-
-/// `prepare`, run under the counting allocator after `warm_shared`: its result, the heap
-/// bytes it left allocated and its peak above the start (see [`alloc::measure`]).
+/// `prepare`, run under the counting allocator after the process-wide state is built
+/// ([`algorithms::warm_process_state`]: counted in whichever variant came first, it made bytes
+/// per tet depend on the order of the variants): its result, the heap bytes it left allocated
+/// and its peak above the start (see [`alloc::measure`]).
 pub fn prepare_counted<T>(renderer: &str, prepare: impl FnOnce() -> T) -> (T, isize, isize) {
-    warm_shared(renderer);
+    algorithms::warm_process_state(renderer);
     alloc::measure(prepare)
 }
 
-/// The heap bytes of the process-wide state `warm_shared` keeps out of every renderer's
-/// `cpu_bytes_per_tet`: the shared Ψ table. (The GPU context, made once a process, is kept
-/// out of the GPU renderers' bytes too; its host memory is wgpu's and the driver's, and is not
-/// reported.)
+/// The heap bytes of the process-wide state kept out of every renderer's `cpu_bytes_per_tet`
+/// ([`algorithms::shared_state_bytes`]).
 pub fn shared_fixed_bytes() -> usize {
-    // (Asking does not build the table.)
-    PsiTable::heap_bytes(PsiTable::DEFAULT_SIZE)
+    algorithms::shared_state_bytes()
 }
 
 /// How many frames: thrown-away warm-up frames, then measured ones (at least one).

@@ -57,33 +57,54 @@ impl Frame {
     }
 }
 
+/// What a renderer is, for the CSV rows and `tetbench render`'s output.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Description {
+    /// The full variant name, e.g. `cpu-pt` or `reference`.
+    pub name: String,
+    /// The sort actually used; empty when it takes none.
+    pub sort: String,
+    /// The integrator actually used.
+    pub integrator: String,
+    /// What ran it: `cpu` or the GPU adapter's name.
+    pub device: String,
+}
+
+impl Description {
+    /// A renderer that runs on the CPU.
+    pub fn cpu(name: &str, sort: &str, integrator: &str) -> Description {
+        Description {
+            name: name.to_string(),
+            sort: sort.to_string(),
+            integrator: integrator.to_string(),
+            device: "cpu".to_string(),
+        }
+    }
+}
+
+/// What a renderer holds for its mesh beyond the heap bytes the harness counts in this process.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Memory {
+    /// Bytes of GPU buffers and textures held for this mesh (0 for CPU renderers).
+    pub gpu_bytes: u64,
+    /// For a renderer that runs in another process (family "external", a peer): the bytes
+    /// that process holds, its peak resident set. The harness reports these as the renderer's CPU
+    /// bytes instead of the heap bytes it counted in this process.
+    pub external_bytes: Option<u64>,
+}
+
 /// A volume renderer for tetrahedral meshes.
 pub trait Renderer: Send {
-    /// The full variant name, e.g. `cpu-pt` or `reference`.
-    fn name(&self) -> String;
-    /// The sort and integrator actually used (for CSV rows); empty when not applicable.
-    fn sort_name(&self) -> String {
-        String::new()
-    }
-    fn integrator_name(&self) -> String;
+    /// Its name, sort, integrator and device.
+    fn describe(&self) -> Description;
     /// Builds everything the renderer holds for this mesh and transfer function. The harness
     /// times this as setup and measures the heap bytes it leaves allocated.
     fn prepare(&mut self, mesh: &Mesh, tf: &TransferFunction) -> Result<()>;
     /// Renders one frame. `prepare` must have been called with the same mesh.
     fn render(&mut self, mesh: &Mesh, camera: &Camera) -> Result<Frame>;
-    /// Bytes of GPU buffers and textures held for this mesh (0 for CPU renderers).
-    fn gpu_bytes(&self) -> u64 {
-        0
-    }
-    /// What ran it: `cpu` or the GPU adapter's name.
-    fn device(&self) -> String {
-        "cpu".to_string()
-    }
-    /// For a renderer that runs in another process (family "external", a peer): the bytes that
-    /// process holds, its peak resident set. The harness reports these as the renderer's CPU
-    /// bytes instead of the heap bytes it counted in this process.
-    fn external_bytes(&self) -> Option<u64> {
-        None
+    /// The GPU and other-process bytes it holds (none for a CPU renderer).
+    fn memory(&self) -> Memory {
+        Memory::default()
     }
 }
 
@@ -137,6 +158,11 @@ pub struct RendererInfo {
     /// The `--param KEY=VALUE` keys it takes, with their defaults and docs; any other key is
     /// refused before the renderer is made.
     pub params: &'static [ParamInfo],
+    /// The largest RMSE against `reference` (CONVENTIONS §6) that the registry-wide test
+    /// (`tests/tests/renderers/registry.rs`) accepts, per integrator it takes: on a 3000-tet
+    /// `cc6` lattice with the default transfer function, 48×48, ortho, at views (0, 0) and
+    /// (37, 21). Each entry says where its values come from (measured, with a margin).
+    pub max_rmse: &'static [(&'static str, f64)],
     /// Makes it (given its own entry); the options have been checked against this entry.
     pub make: fn(&RendererInfo, &RenderOptions) -> Result<Box<dyn Renderer>>,
 }

@@ -9,8 +9,8 @@
 
 use super::{centroids, check_prepared, f32x3, KeyFn, Sort, SortInfo, SortStats};
 use crate::camera::Camera;
-use crate::error::{Error, Result};
-use crate::plugin::ParamInfo;
+use crate::error::Result;
+use crate::plugin::{ParamInfo, Params};
 use crate::mesh::Mesh;
 
 #[derive(Debug)]
@@ -56,20 +56,12 @@ pub const BUCKET: SortInfo = SortInfo {
     }],
     lattice_only: false,
     make: |arg| {
-        let slabs = match arg {
-            None => super::DEFAULT_SLABS,
-            Some(n) => n
-                .trim()
-                .parse::<usize>()
-                .ok()
-                .filter(|s| (1..=super::MAX_SLABS).contains(s))
-                .ok_or_else(|| {
-                    Error::Input(format!(
-                        "sort 'bucket:{n}': the slab count must be an integer in 1..={}",
-                        super::MAX_SLABS
-                    ))
-                })?,
-        };
+        let given: Vec<(String, String)> = arg
+            .map(|n| ("N".to_string(), n.trim().to_string()))
+            .into_iter()
+            .collect();
+        let p = Params::new("sort 'bucket'", BUCKET.params, &given)?;
+        let slabs = p.usize_in("N", 1..=super::MAX_SLABS)?;
         Ok(Box::new(BucketSort::new(slabs)))
     },
 };

@@ -1,4 +1,4 @@
-//! Visibility sorts for projected tetrahedra (issue 5, point 3), kept apart from rendering.
+//! Visibility sorts for projected tetrahedra, kept apart from rendering.
 //!
 //! A [`Sort`] is prepared once per mesh and then, per camera, writes a back-to-front order:
 //! every tet index exactly once, farthest first. The sorts, by name ([`SORTS`], [`make`]):

@@ -8,7 +8,7 @@ use std::time::Instant;
 use algorithms::camera::{Camera, Projection};
 use algorithms::image::Image;
 use algorithms::mesh::Aabb;
-use algorithms::render::{self, Renderer};
+use algorithms::render::{self, Description, Renderer};
 use algorithms::{metrics, util::alloc, Error, Mesh, Result, TransferFunction};
 
 use crate::experiment::{Experiment, Variant, ViewItem};
@@ -105,11 +105,11 @@ impl Prepared {
             repeats: exp.repeats,
             warmup: exp.warmup,
             threads: rayon::current_num_threads(),
-            device: renderer.device(),
+            device: renderer.describe().device,
             setup_ms,
             cpu_bytes_per_tet: per_tet(bytes),
             cpu_peak_bytes_per_tet: per_tet(peak),
-            gpu_bytes_per_tet: renderer.gpu_bytes() as f64 / tets,
+            gpu_bytes_per_tet: renderer.memory().gpu_bytes as f64 / tets,
             ..Default::default()
         };
         Ok(Prepared {
@@ -130,11 +130,8 @@ struct Unavailable {
 }
 
 impl Renderer for Unavailable {
-    fn name(&self) -> String {
-        self.name.clone()
-    }
-    fn integrator_name(&self) -> String {
-        String::new()
+    fn describe(&self) -> Description {
+        Description::cpu(&self.name, "", "")
     }
     fn prepare(&mut self, _: &Mesh, _: &TransferFunction) -> Result<()> {
         Err(Error::Input(format!(
@@ -160,11 +157,12 @@ pub const TEST_PANIC_ENV: &str = "TETBENCH_TEST_PANIC";
 struct TestPanic<'a>(&'a mut dyn Renderer);
 
 impl Renderer for TestPanic<'_> {
-    fn name(&self) -> String {
-        self.0.name()
-    }
-    fn integrator_name(&self) -> String {
-        self.0.integrator_name()
+    fn describe(&self) -> Description {
+        Description {
+            sort: String::new(),
+            device: "cpu".into(),
+            ..self.0.describe()
+        }
     }
     fn prepare(&mut self, mesh: &Mesh, tf: &TransferFunction) -> Result<()> {
         self.0.prepare(mesh, tf)
@@ -351,10 +349,11 @@ fn finish_row(
     row.counters = crate::rows::format_counters(&m.counters);
     // A peer's bytes are its process group's peak RSS (and the GPU bytes it reports), known
     // after the frames.
-    if let Some(b) = p.renderer.external_bytes() {
+    let memory = p.renderer.memory();
+    if let Some(b) = memory.external_bytes {
         row.cpu_bytes_per_tet = b as f64 / row.tets.max(1) as f64;
         row.cpu_peak_bytes_per_tet = row.cpu_bytes_per_tet;
-        row.gpu_bytes_per_tet = p.renderer.gpu_bytes() as f64 / row.tets.max(1) as f64;
+        row.gpu_bytes_per_tet = memory.gpu_bytes as f64 / row.tets.max(1) as f64;
     }
     let yardstick = match reference {
         None => None,

@@ -231,12 +231,8 @@ pub fn expand_renderer(
                 // The yardstick takes the variant's own options.
                 render::make(y, &options).map_err(|e| prefixed("reference", e))?;
             }
-            out.push(variant(
-                made.name(),
-                made.sort_name(),
-                made.integrator_name(),
-                None,
-            ));
+            let d = made.describe();
+            out.push(variant(d.name, d.sort, d.integrator, None));
         }
     }
     Ok(out)

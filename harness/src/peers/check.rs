@@ -303,7 +303,8 @@ fn check_scene(
     let frame = crate::bench::isolated(|| peer.render(mesh, &cam));
     o.wall_ms = Some(t0.elapsed().as_secs_f64() * 1e3);
     o.rss_per_tet = peer
-        .external_bytes()
+        .memory()
+        .external_bytes
         .map(|b| b as f64 / mesh.num_tets() as f64);
     let frame = match frame {
         Ok(f) => f,

@@ -57,7 +57,7 @@ use self::bins::Bins;
 use self::fast::FastRec;
 use self::general::{draw_tiles, DrawCtx};
 use self::project::{TetProj, TileRect, VertProj};
-use super::{ms_since, Family, Frame, FrameTimes, Renderer, RendererInfo};
+use super::{ms_since, Description, Family, Frame, FrameTimes, Renderer, RendererInfo};
 use crate::camera::{Camera, Projection};
 use crate::error::{Error, Result};
 use crate::image::Image;
@@ -81,6 +81,8 @@ pub static CPU_PT: RendererInfo = RendererInfo {
     table_sorts: &["*"],
     default_integrator: "partial",
     params: &[],
+    // Measured by the registry-wide test (worst of its two views), ×1.5.
+    max_rmse: &[("average", 4.0e-3), ("partial", 4.6e-3), ("preint", 2.8e-3), ("exact", 2.8e-3)],
     make: |_, o| {
         Ok(Box::new(CpuPt::new(
             o.sort.as_deref().unwrap_or("centroid"),
@@ -189,14 +191,8 @@ impl CpuPt {
 }
 
 impl Renderer for CpuPt {
-    fn name(&self) -> String {
-        self.name.to_string()
-    }
-    fn sort_name(&self) -> String {
-        self.sort_name.clone()
-    }
-    fn integrator_name(&self) -> String {
-        self.integrator_name.clone()
+    fn describe(&self) -> Description {
+        Description::cpu(self.name, &self.sort_name, &self.integrator_name)
     }
 
     fn prepare(&mut self, mesh: &Mesh, tf: &TransferFunction) -> Result<()> {

@@ -399,15 +399,15 @@ fn cpu_pt_throughput() {
 fn registry_and_sorts() {
     let opts = crate::render::RenderOptions::default();
     let r = crate::render::make("cpu-pt", &opts).unwrap();
-    assert_eq!(r.integrator_name(), "partial");
-    assert_eq!(r.sort_name(), "centroid");
+    assert_eq!(r.describe().integrator, "partial");
+    assert_eq!(r.describe().sort, "centroid");
     for sort in ["mpvonc", "bucket:16", "centroid-radix"] {
         let o = crate::render::RenderOptions {
             sort: Some(sort.into()),
             integrator: None,
             ..Default::default()
         };
-        assert_eq!(crate::render::make("cpu-pt", &o).unwrap().sort_name(), sort);
+        assert_eq!(crate::render::make("cpu-pt", &o).unwrap().describe().sort, sort);
     }
     let bad = crate::render::RenderOptions {
         sort: Some("bubble".into()),

@@ -1,6 +1,6 @@
 //! The fast path of the `bilateral` filter: the same arithmetic as the scalar definition
 //! [`Filter::edge_aware`] in the same order (so the images are bit-identical for a finite guide;
-//! tests/tests/jbu.rs checks it on meshes), laid out for speed:
+//! tests/tests/renderers/jbu.rs checks it on meshes), laid out for speed:
 //!
 //! - the low-res samples as three flat arrays (colour, `K` layers, layer count) instead of one
 //!   array of tuples, and the bilinear products `t_x·t_y` per pixel computed once;

@@ -47,7 +47,7 @@ use crate::camera::{Camera, View};
 use crate::error::{Error, Result};
 use crate::image::Image;
 use crate::mesh::Mesh;
-use crate::plugin::ParamInfo;
+use crate::plugin::{self, ParamInfo};
 
 mod fast;
 mod filter;
@@ -89,16 +89,6 @@ impl Method {
     /// Whether the method needs the depth layers.
     pub fn guided(self) -> bool {
         matches!(self, Method::Bilateral | Method::Gauss)
-    }
-    pub fn parse(s: &str) -> Result<Method> {
-        Method::ALL
-            .into_iter()
-            .find(|m| m.name() == s)
-            .ok_or_else(|| {
-                Error::Input(format!(
-                    "unknown upsampling method '{s}' (known: nearest, linear, bilateral, gauss)"
-                ))
-            })
     }
 }
 
@@ -150,58 +140,38 @@ pub const PARAMS: &[ParamInfo] = &[
 impl Default for Params {
     /// The defaults of [`PARAMS`].
     fn default() -> Self {
-        let mut p = Params {
-            method: Method::Bilateral,
-            k: 1,
-            sigma_r: 1.0,
-            sigma_c: 1.0,
-            radius: 1,
-        };
-        for i in PARAMS {
-            // The table is a constant; tests/tests/jbu.rs checks every default parses.
-            let _ = p.set(i.name, i.default);
-        }
-        p
+        // The table is a constant; tests/tests/renderers/jbu.rs checks every default parses.
+        Params::read(&[]).expect("the documented defaults are valid")
     }
 }
 
 impl Params {
-    /// Sets option `key` (a [`PARAMS`] name) from its text; `Error::Input` names a bad key or
-    /// value (ranges are checked by [`Params::check`]).
-    pub fn set(&mut self, key: &str, value: &str) -> Result<()> {
-        let v = value.trim();
-        let bad = || Error::Input(format!("jbu: bad value in '{key}={value}'"));
-        match key.trim() {
-            "method" => self.method = Method::parse(v)?,
-            "k" => self.k = v.parse().map_err(|_| bad())?,
-            "sigma" => self.sigma_r = v.parse().map_err(|_| bad())?,
-            "c" => self.sigma_c = v.parse().map_err(|_| bad())?,
-            "r" => self.radius = v.parse().map_err(|_| bad())?,
-            other => {
-                return Err(Error::Input(format!(
-                    "jbu: unknown option '{other}' (known: method, k, sigma, c, r)"
-                )))
-            }
-        }
-        Ok(())
+    /// Parameters from `KEY=VALUE` pairs (keys of [`PARAMS`]), the defaults for what is not
+    /// given, checked; `Error::Input` names a bad key or value.
+    pub fn read(given: &[(String, String)]) -> Result<Params> {
+        let p = plugin::Params::new("jbu", PARAMS, given)?;
+        Ok(Params {
+            method: p.choice("method", &Method::ALL.map(|m| (m.name(), m)))?,
+            k: p.usize_in("k", 1..=MAX_LAYERS)?,
+            sigma_r: p.positive_f64("sigma")?,
+            sigma_c: p.positive_f64("c")?,
+            radius: p.usize_in("r", 1..=8)?,
+        })
     }
 
     /// Parameters from a spec `method[:key=value]...` (keys of [`PARAMS`], `s` short for
     /// `sigma`), the defaults for what is not given, checked; e.g. `bilateral:k=2:s=0.01`.
     pub fn from_spec(spec: &str) -> Result<Params> {
         let mut it = spec.split(':');
-        let mut p = Params {
-            method: Method::parse(it.next().unwrap_or_default())?,
-            ..Params::default()
-        };
+        let mut given = vec![("method".to_string(), it.next().unwrap_or_default().to_string())];
         for o in it {
             let (k, v) = o
                 .split_once('=')
                 .ok_or_else(|| Error::Input(format!("jbu: '{o}' is not key=value")))?;
-            p.set(if k == "s" { "sigma" } else { k }, v)?;
+            let k = if k == "s" { "sigma" } else { k };
+            given.push((k.to_string(), v.to_string()));
         }
-        p.check()?;
-        Ok(p)
+        Params::read(&given)
     }
 
     /// Checks the ranges; `Error::Input` names the bad value.

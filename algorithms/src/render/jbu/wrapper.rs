@@ -25,7 +25,8 @@ use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::mesh::Mesh;
 use crate::render::{
-    ms_since, Family, Frame, FrameTimes, RenderOptions, Renderer, RendererInfo,
+    ms_since, Description, Family, Frame, FrameTimes, Memory, RenderOptions, Renderer,
+    RendererInfo,
 };
 use crate::tf::TransferFunction;
 
@@ -44,6 +45,8 @@ pub static JBU: RendererInfo = RendererInfo {
     default_integrator: "as <renderer>",
     // Given in the name (`jbu:raycast@128,k=2`); `--param` keys go to the inner renderer.
     params: super::PARAMS,
+    // The pattern has no integrators of its own (`jbu` tests it around every renderer).
+    max_rmse: &[],
     make: |_, _| {
         Err(Error::Input(
             "jbu: give the inner renderer and low size, e.g. jbu:raycast@128".into(),
@@ -123,14 +126,14 @@ impl Spec {
         {
             return Err(bad(format!("low-res size '{size}' above 16384")));
         }
-        let mut params = Params::default();
+        let mut given = Vec::new();
         for opt in parts {
             let (k, v) = opt
                 .split_once('=')
                 .ok_or_else(|| bad(format!("option '{opt}' is not key=value")))?;
-            params.set(k, v).map_err(|e| bad(e.to_string()))?;
+            given.push((k.trim().to_string(), v.trim().to_string()));
         }
-        params.check().map_err(|e| bad(e.to_string()))?;
+        let params = Params::read(&given).map_err(|e| bad(e.to_string()))?;
         crate::render::info(inner).map_err(|e| Error::Input(format!("renderer '{name}': {e}")))?;
         Ok(Spec {
             inner: inner.to_string(),
@@ -170,14 +173,11 @@ impl Jbu {
 }
 
 impl Renderer for Jbu {
-    fn name(&self) -> String {
-        self.name.clone()
-    }
-    fn sort_name(&self) -> String {
-        self.inner.sort_name()
-    }
-    fn integrator_name(&self) -> String {
-        self.inner.integrator_name()
+    fn describe(&self) -> Description {
+        Description {
+            name: self.name.clone(),
+            ..self.inner.describe()
+        }
     }
     fn prepare(&mut self, mesh: &Mesh, tf: &TransferFunction) -> Result<()> {
         self.inner.prepare(mesh, tf)?;
@@ -215,10 +215,11 @@ impl Renderer for Jbu {
             counters,
         })
     }
-    fn gpu_bytes(&self) -> u64 {
-        self.inner.gpu_bytes()
-    }
-    fn device(&self) -> String {
-        self.inner.device()
+
+    fn memory(&self) -> Memory {
+        Memory {
+            gpu_bytes: self.inner.memory().gpu_bytes,
+            external_bytes: None,
+        }
     }
 }

@@ -25,7 +25,9 @@ use std::path::PathBuf;
 use std::sync::{Mutex, OnceLock};
 use std::time::Duration;
 
-use super::{Family, Frame, FrameTimes, RenderOptions, Renderer, RendererInfo};
+use super::{
+    Description, Family, Frame, FrameTimes, Memory, RenderOptions, Renderer, RendererInfo,
+};
 use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::mesh::Mesh;
@@ -179,6 +181,8 @@ fn info_of(spec: &PeerSpec) -> RendererInfo {
         default_integrator: integrators.first().copied().unwrap_or(""),
         integrators: Box::leak(integrators.into_boxed_slice()),
         params: Box::leak(params.into_boxed_slice()),
+        // A declaration states no bound against the reference yet.
+        max_rmse: &[],
         make: |info, o| {
             let r = find(info.name).ok_or_else(|| {
                 Error::Internal(format!("peer '{}' is not registered", info.name))
@@ -400,30 +404,30 @@ impl PeerRenderer {
 }
 
 impl Renderer for PeerRenderer {
-    fn name(&self) -> String {
-        self.spec.name.clone()
-    }
-    fn integrator_name(&self) -> String {
-        self.integrator.clone()
-    }
-    fn device(&self) -> String {
-        match &self.hello {
+    fn describe(&self) -> Description {
+        let device = match &self.hello {
             Some(Hello {
                 device: Some(d), ..
             }) => d.clone(),
             Some(h) => format!("peer {} {}", h.name, h.version).trim().to_string(),
             None => format!("peer {}", self.spec.name),
+        };
+        Description {
+            name: self.spec.name.clone(),
+            sort: String::new(),
+            integrator: self.integrator.clone(),
+            device,
         }
     }
-    fn gpu_bytes(&self) -> u64 {
-        self.gpu_bytes
-    }
-    fn external_bytes(&self) -> Option<u64> {
+    fn memory(&self) -> Memory {
         if let Some(p) = &self.process {
             // High-water marks only grow: reading them now gives the peak so far.
             self.peak_rss.set(self.peak_rss.get().max(p.peak_rss()));
         }
-        Some(self.peak_rss.get())
+        Memory {
+            gpu_bytes: self.gpu_bytes,
+            external_bytes: Some(self.peak_rss.get()),
+        }
     }
 
     fn prepare(&mut self, mesh: &Mesh, tf: &TransferFunction) -> Result<()> {

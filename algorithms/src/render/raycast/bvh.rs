@@ -15,7 +15,7 @@ use crate::mesh::{Mesh, FACE_VERTS};
 /// A face of a tet with a nonzero exact orientation (Shewchuk's orient3d on the centred
 /// positions the walk uses) points out when the tet is positive. A zero-volume tet has no
 /// orientation of its own — blunt has 77, some with two boundary faces, and taking them as
-/// positive turned their entry faces into exit faces (the holes of issue 13). Such a face takes
+/// positive turned their entry faces into exit faces (holes in the image). Such a face takes
 /// the orientation that makes the boundary surface consistent: across a boundary edge shared by
 /// exactly two boundary faces, the two circulations run the edge in opposite directions. It is
 /// propagated breadth-first from the oriented faces; a connected patch of flat faces with no
@@ -231,7 +231,7 @@ impl Bvh {
     /// it. The answer is the same: the first face in traversal order with the least depth (a
     /// face at exactly `t_s` is taken only while nothing is found, as it would be when first
     /// met); only faces whose depths tie to the rounding of a slab test could be ordered
-    /// otherwise, and `tests/tests/raycast_bits.rs` pins the images. Returns the face's leaf
+    /// otherwise, and `tests/tests/renderers/raycast_bits.rs` pins the images. Returns the face's leaf
     /// index too.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn first_entry(

@@ -9,7 +9,7 @@
 //! tet index. The GPU may contract `a·b + c` into a fused multiply-add, so a key can differ from
 //! the CPU's by an ulp and two nearly equal keys swap: the order then differs from
 //! `centroid-radix` only between tets of (nearly) equal depth. On the *same* keys (mode "raw",
-//! [`sort_f32_keys`]) the orders are identical, which `tests/tests/gpu_sort.rs` checks.
+//! [`sort_f32_keys`]) the orders are identical, which `tests/tests/gpu/sort.rs` checks.
 //!
 //! **`gpu-radix`**: LSD radix sort, 4 passes of 8 bits; per pass a histogram of each block of
 //! 1024 keys (`radix_hist`), one exclusive scan of the digit-major histograms (`radix_scan`), and

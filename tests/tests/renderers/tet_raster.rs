@@ -4,8 +4,6 @@
 //! `post-like` analogue, at 512², two views, over the whole image and clipped to 64×64 tiles.
 //! Same centres, same fan triangles, the same barycentric weights to rounding.
 
-mod common;
-
 use algorithms::camera::{Camera, Projection, View};
 use algorithms::render::pt::{classify, raster_fan, FanGeometry, Fragment, ProjVertex, TetRaster};
 use algorithms::{Mesh, TransferFunction};
@@ -61,7 +59,7 @@ fn check(name: &str, mesh: &Mesh) {
 fn tet_rasteriser_covers_what_the_fan_rasteriser_does_on_post() {
     let analogue = datasets_gen::generate("post-like", Some(60_000), 1).unwrap();
     check("post-like", &analogue);
-    if let Some(post) = common::nasa("post") {
+    if let Some(post) = tetbench_tests::test_util::nasa("post") {
         check("post", &post);
     }
 }

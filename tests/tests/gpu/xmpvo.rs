@@ -1,4 +1,4 @@
-//! `ptint` and `hapt` take `--sort xmpvo` (issue 13): on hard-mpvonc, viewed along the combs'
+//! `ptint` and `hapt` take `--sort xmpvo`: on hard-mpvonc, viewed along the combs'
 //! teeth where MPVONC's order is wrong, each GPU renderer with `xmpvo` matches `cpu-pt` with
 //! `xmpvo` (RMSE ≤ 1e-3 at 128², as the other GPU-vs-CPU tests), and with `mpvonc` it is visibly
 //! farther from it — so the order really reaches the GPU draw. Needs an adapter: SKIPPED
@@ -17,7 +17,7 @@ fn frame(renderer: &str, sort: &str, mesh: &Mesh, cam: &Camera) -> Frame {
         ..Default::default()
     };
     let mut r = render::make(renderer, &opts).unwrap();
-    assert_eq!(r.sort_name(), sort, "{renderer}");
+    assert_eq!(r.describe().sort, sort, "{renderer}");
     r.prepare(mesh, &tf)
         .unwrap_or_else(|e| panic!("{renderer} {sort}: {e}"));
     let f = r
@@ -31,13 +31,13 @@ fn gpu_takes_xmpvo(renderer: &str) {
     let Some(gpu) = algorithms::gpu::test_gpu(&format!("{renderer}_takes_xmpvo")) else {
         return;
     };
-    // Half-float targets blend less exactly (see gpu_ptint.rs).
+    // Half-float targets blend less exactly (see `ptint`).
     let bound = if gpu.target_format == algorithms::gpu::wgpu::TextureFormat::Rgba32Float {
         1e-3
     } else {
         5e-3
     };
-    // The mesh and views of xmpvo.rs, on which cpu-pt with mpvonc is wrong by up to 0.37.
+    // The mesh and views of the sorts' `xmpvo` test, on which cpu-pt with mpvonc is wrong by up to 0.37.
     let mesh = datasets_gen::generate("hard-mpvonc", Some(24_000), 7).unwrap();
     let mut views: Vec<(View, Projection)> = fibonacci_views(5)
         .into_iter()

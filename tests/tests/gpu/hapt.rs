@@ -3,8 +3,6 @@
 //! iso-surfaces closed on a sphere field, streaming with mesh-independent GPU memory and the
 //! same image, time-varying frames equal to renders of each step. Small meshes, 128².
 
-mod common;
-
 use algorithms::camera::{Camera, Projection, View};
 use algorithms::metrics::compare;
 use algorithms::render::{self, Frame, RenderOptions};
@@ -32,7 +30,7 @@ fn frame(
     r.prepare(mesh, tf).unwrap();
     let f = r.render(mesh, cam).unwrap();
     assert_eq!(f.image.non_finite_pixels(), 0, "{renderer} {sort} {integ}");
-    (f, r.gpu_bytes())
+    (f, r.memory().gpu_bytes)
 }
 
 fn rmse(a: &Frame, b: &Frame) -> f64 {
@@ -91,7 +89,7 @@ fn hapt_equals_cpu_pt_on_blunt() {
     let Some(_gpu) = algorithms::gpu::test_gpu("hapt_equals_cpu_pt_on_blunt") else {
         return;
     };
-    let Some(mesh) = common::nasa("blunt") else {
+    let Some(mesh) = tetbench_tests::test_util::nasa("blunt") else {
         return;
     };
     check_equal(

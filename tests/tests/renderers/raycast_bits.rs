@@ -1,30 +1,12 @@
-//! The ray caster's images are pinned bit for bit (issue 15): `reference` must stay exactly
-//! what it was when its speed work began, and `raycast` (partial) too. Each case renders a
-//! small image in f64 ([`RayCaster::render_f64`]) and hashes every bit of it with the frame's
-//! cell-step and missed-ray counts; the expected hashes were taken from the ray caster before
-//! the walk, shading and BVH changes of issue 15 (commit d6960c3, the same images as the
-//! original). A change to any pixel's last bit, or to the cells a ray visits, fails here.
-//!
-//! The `partial` pins were re-taken, deliberately, with issue 15's second pass (the projected
-//! walk, the TF by precomputed slopes, one inline exponential a segment): the same cells, and
-//! values that differ from the old pins' in last bits only (`projected_walk_matches_the_
-//! reference_walk` below holds the projected walk to the reference walk within 1e-9; on blunt,
-//! comb and post at 512² the f32 images did not change in any bit). The two orthographic
-//! `partial` pins were re-taken once more, deliberately, for the shared frame of orthographic
-//! views (`projected.rs`, `SharedFrame`: a vertex is `fl(p·f) − fl(o·f)` instead of
-//! `fl((p − o)·f)`): the same cells and steps, last bits only (the perspective pin did not
-//! change; the f32 images of blunt, comb and post at 512², view 30,20, did not change in any
-//! bit). The three `partial` pins were re-taken, deliberately, a third time when `partial`'s
-//! segment optics moved to f32 (`shade.rs`, `RcPartial`: `cpu-pt`'s colour kernel on the
-//! walk's f64 crossings and TF values): the same cells and steps, values within f32 rounding
-//! of the old (blunt at 512², view 30,20: max |diff| 2.8e-7, RMSE 1.9e-8 over the image; the
-//! RMSE against `reference` unchanged to two digits). They were re-taken, deliberately, a fourth
-//! time when the projected walk began to composite a queue's segments among themselves before
-//! compositing them onto the ray (`projected.rs`, `drain`: "under" is associative, the rounding
-//! is not): the same cells and steps, the f64 pixels within 1.1e-15 of the old (the walk
-//! against the reference walk below: ≤ 1.1e-15 where it was 0; the three perspective cases
-//! that differed already, by 2.6e-14, 2.6e-14 and 2.2e-11, as before), the f32 images of blunt,
-//! comb and post at 512², view 30,20, unchanged in every bit. The `exact` pins are the original ones.
+//! The ray caster's images are pinned bit for bit: each case renders a small image in f64
+//! ([`RayCaster::render_f64`]) and hashes every bit of it with the frame's cell-step and
+//! missed-ray counts. A change to any pixel's last bit, or to the cells a ray visits, fails
+//! here. The `exact` pins (`reference`) are the ray caster's original images. The `partial`
+//! pins were re-taken, deliberately, each time the walk's or the optics' rounding changed on
+//! purpose (the projected walk, the shared frame of orthographic views, f32 segment optics,
+//! a queue's segments composited among themselves): the same cells and steps every time, the
+//! values within last bits, and `projected_walk_matches_the_reference_walk` below holds the
+//! projected walk to the reference walk within 1e-9. `git log` of this file says when and why.
 
 use algorithms::camera::{Camera, Projection, View};
 use algorithms::render::raycast::RayCaster;

@@ -1,5 +1,5 @@
 //! A UTF-8 byte-order mark is accepted by every text reader (`.off`, `.vtk`, `.vtu`, TF JSON),
-//! and a `.vtk` file with CR-only line endings reads like its LF twin (issue #19).
+//! and a `.vtk` file with CR-only line endings reads like its LF twin.
 
 use algorithms::io::{self, LoadOptions};
 use algorithms::{Mesh, TransferFunction};

@@ -1,7 +1,5 @@
 //! The reference renders every datasets-gen mesh (hard cases included) and the NASA grids with no
-//! NaN or inf pixel, no lost ray, and bit-identically twice (optics issue, "Done when").
-
-mod common;
+//! NaN or inf pixel, no lost ray, and bit-identically twice.
 
 use algorithms::camera::{Camera, Projection, View};
 use algorithms::render::raycast::RayCaster;
@@ -65,7 +63,7 @@ fn every_generated_mesh() {
 fn nasa_grids() {
     let tf = TransferFunction::preset("default").unwrap();
     for name in ["blunt", "post", "comb"] {
-        let Some(mesh) = common::nasa(name) else {
+        let Some(mesh) = tetbench_tests::test_util::nasa(name) else {
             continue;
         };
         check(name, &mesh, &tf, 40);

@@ -1,15 +1,13 @@
-//! The reference is watertight (issue 13, step 1): with a transfer function whose τ is positive
+//! The reference is watertight: with a transfer function whose τ is positive
 //! everywhere, every pixel whose centre the projected boundary covers is not transparent, and no
 //! ray is counted in `missed_rays`. Coverage is decided independently of the ray caster, by the
 //! boundary rasteriser of JBU (exact 2-D orientation at the pixel centre, top-left rule).
 //!
 //! The CI test uses a few Fibonacci views at small sizes; `full_check` (ignored) is the ≥ 100
 //! views at 256² check, run in release:
-//! `cargo test --release -p tetbench-tests --test watertight -- --ignored --nocapture`
+//! `cargo test --release -p tetbench-tests --test renderers watertight -- --ignored --nocapture`
 //! (`WATERTIGHT_VIEWS`, `WATERTIGHT_SIZE` override the view count and size, `WATERTIGHT_MESHES`
 //! a comma-separated list of mesh names restricts it).
-
-mod common;
 
 use algorithms::camera::{fibonacci_views, Camera, Projection};
 use algorithms::render::jbu::BoundaryRaster;
@@ -124,7 +122,7 @@ fn hard_cases_have_no_holes_with_the_projected_walk() {
 #[test]
 fn nasa_grids_have_no_holes() {
     for name in ["blunt", "post", "comb"] {
-        if let Some(mesh) = common::nasa(name) {
+        if let Some(mesh) = tetbench_tests::test_util::nasa(name) {
             check(name, &mesh, 8, 64);
         }
     }
@@ -154,7 +152,7 @@ fn full_check() {
         if !wanted(name) {
             continue;
         }
-        if let Some(mesh) = common::nasa(name) {
+        if let Some(mesh) = tetbench_tests::test_util::nasa(name) {
             check(name, &mesh, views, size);
         }
     }

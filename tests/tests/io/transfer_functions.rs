@@ -1,4 +1,4 @@
-//! Hostile transfer functions (issue #19): each is either refused with one line naming the point,
+//! Hostile transfer functions: each is either refused with one line naming the point,
 //! or renders finite pixels in [0, 1] with every renderer and integrator — never a panic, never a
 //! NaN. Small mesh, 32²; the GPU renderers run where a GPU is (lavapipe in CI).
 

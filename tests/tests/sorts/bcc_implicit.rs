@@ -1,4 +1,4 @@
-//! `bcc-implicit` (issue 9): a visibility order read off the lattice on `bcc`, `cc5` and `cc6`
+//! `bcc-implicit`: a visibility order read off the lattice on `bcc`, `cc5` and `cc6`
 //! meshes — every face constraint honoured over many orthographic views, and `cpu-pt` images
 //! identical in 8 bits to `mpvonc`'s; empty-space skipping leaves the image unchanged.
 

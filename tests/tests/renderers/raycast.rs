@@ -1,4 +1,4 @@
-//! The reference ray caster against closed forms and symmetries (optics issue, "Done when").
+//! The reference ray caster against closed forms and symmetries.
 
 use algorithms::camera::{Camera, Projection, View};
 use algorithms::glam::DVec3;

@@ -110,8 +110,8 @@ fn wrong_meshes_schemes_and_params_are_refused_in_one_line() {
     for (mesh, params, want) in [
         (&plain, &[][..], "lattice"),
         (&cc, &[("scheme", "bary")][..], "scheme bary"),
-        (&cc, &[("scheme", "cubic")][..], "scheme 'cubic'"),
-        (&cc, &[("step", "-1")][..], "step '-1'"),
+        (&cc, &[("scheme", "cubic")][..], "scheme=cubic"),
+        (&cc, &[("step", "-1")][..], "step=-1"),
     ] {
         let e = prep(mesh, params).unwrap_err().to_string();
         assert!(e.contains(want) && !e.contains('\n'), "{e}");

@@ -3,8 +3,6 @@
 //! degenerate hard case renders finite (GPU issue, "Done when"). Each test needs an adapter:
 //! without one it prints SKIPPED, or fails under `TETBENCH_REQUIRE_GPU=1`.
 
-mod common;
-
 use algorithms::camera::{Camera, Projection, View};
 use algorithms::metrics::compare;
 use algorithms::render::{self, Frame, RenderOptions};
@@ -41,9 +39,9 @@ fn frame(
     );
     if renderer == "ptint" {
         assert!(
-            r.gpu_bytes() > 0 && r.device().contains(" / Rgba"),
+            r.memory().gpu_bytes > 0 && r.describe().device.contains(" / Rgba"),
             "{}",
-            r.device()
+            r.describe().device
         );
     }
     f
@@ -132,7 +130,7 @@ fn ptint_matches_cpu_pt_on_blunt() {
         return;
     };
     let name = "blunt";
-    let Some(mesh) = common::nasa(name) else {
+    let Some(mesh) = tetbench_tests::test_util::nasa(name) else {
         return;
     };
     check(

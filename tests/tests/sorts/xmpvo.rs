@@ -1,12 +1,10 @@
 //! `cpu-pt --sort xmpvo --integrator exact` equals `reference` on non-convex meshes, where
-//! `mpvonc` does not (issue 13, point 4): the per-pixel boundary order across empty space makes
+//! `mpvonc` does not: the per-pixel boundary order across empty space makes
 //! the projected-tetrahedra image visibility-exact.
 //!
 //! The `#[ignore]`d test is the issue's measurement (50 Fibonacci views at 128² on blunt, post,
 //! comb, torus, shell, hard-mpvonc, xmpvo beside mpvonc):
 //! `cargo test --release -p tetbench-tests --test xmpvo -- --ignored --nocapture`.
-
-mod common;
 
 use algorithms::camera::{fibonacci_views, Camera, Projection, View};
 use algorithms::image::Image;
@@ -27,8 +25,8 @@ fn frame(mesh: &Mesh, tf: &TransferFunction, renderer: &str, sort: &str, cam: &C
 }
 
 /// (RMSE, max_abs) of cpu-pt with `sort` against the reference. Pixels where the reference is
-/// exactly transparent although the boundary covers the pixel centre (the reference's holes,
-/// issue 13 point 1) are left out of both images; their number is returned too.
+/// exactly transparent although the boundary covers the pixel centre (the reference's holes)
+/// are left out of both images; their number is returned too.
 fn error(
     mesh: &Mesh,
     tf: &TransferFunction,
@@ -150,7 +148,7 @@ fn xmpvo_matches_the_reference_in_perspective() {
 fn xmpvo_matches_the_reference_on_the_nasa_grids() {
     let tf = TransferFunction::preset("default").unwrap();
     for name in ["blunt", "post", "comb"] {
-        let Some(mesh) = common::nasa(name) else {
+        let Some(mesh) = tetbench_tests::test_util::nasa(name) else {
             continue;
         };
         let (e, holes) = worst(&mesh, &tf, &["xmpvo"], &fibonacci_views(3), 64);
@@ -208,7 +206,7 @@ fn done_when_50_views_at_128() {
     let views = fibonacci_views(50);
     let mut meshes: Vec<(String, Mesh)> = ["blunt", "post", "comb"]
         .into_iter()
-        .filter_map(|n| common::nasa(n).map(|m| (n.to_string(), m)))
+        .filter_map(|n| tetbench_tests::test_util::nasa(n).map(|m| (n.to_string(), m)))
         .collect();
     for name in ["torus", "shell", "hard-mpvonc"] {
         meshes.push((name.into(), datasets_gen::generate(name, None, 1).unwrap()));
@@ -241,8 +239,8 @@ fn diag_views() {
     let size: u32 = std::env::var("DIAG_SIZE")
         .map(|s| s.parse().unwrap())
         .unwrap_or(128);
-    let mesh =
-        common::nasa(&name).unwrap_or_else(|| datasets_gen::generate(&name, None, 1).unwrap());
+    let mesh = tetbench_tests::test_util::nasa(&name)
+        .unwrap_or_else(|| datasets_gen::generate(&name, None, 1).unwrap());
     let raster = BoundaryRaster::new(&mesh);
     let only: Option<usize> = std::env::var("DIAG_VIEW").ok().map(|s| s.parse().unwrap());
     for (k, view) in fibonacci_views(50).into_iter().enumerate() {

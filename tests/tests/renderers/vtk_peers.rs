@@ -1,4 +1,4 @@
-//! VTK's mappers as peers (issue 18): `vtk-pt`, `vtk-raycast` (both grids) and `vtk-zsweep` on a
+//! VTK's mappers as peers: `vtk-pt`, `vtk-raycast` (both grids) and `vtk-zsweep` on a
 //! small non-convex mesh, ortho and persp, against `reference`: the image within the bounds of
 //! `docs/vtk.md`, and the camera matching ours (the silhouette's alpha centroid within 0.35 px,
 //! its bounding box within a pixel). The Bunyk ray caster gets a mesh with zero-volume cells,
@@ -10,23 +10,12 @@ use algorithms::image::Image;
 use algorithms::metrics::compare;
 use algorithms::render::{self, Frame, RenderOptions};
 use algorithms::{Mesh, TransferFunction};
+use tetbench_tests::test_util::vtk_enabled;
 
 const SIZE: u32 = 128;
 
 /// (renderer, `--param`s, RMSE bound).
 type Peer = (&'static str, &'static [(&'static str, &'static str)], f64);
-
-/// Whether to run; `false` prints why. Fails when VTK is required but not there.
-fn vtk_enabled(test: &str) -> bool {
-    if std::env::var_os("TETBENCH_VTK_PYTHON").is_some_and(|v| !v.is_empty()) {
-        return true;
-    }
-    if std::env::var("TETBENCH_REQUIRE_VTK").is_ok_and(|v| v == "1") {
-        panic!("{test}: TETBENCH_VTK_PYTHON is not set and TETBENCH_REQUIRE_VTK=1");
-    }
-    eprintln!("{test}: TETBENCH_VTK_PYTHON not set, skipped");
-    false
-}
 
 fn spx() -> Mesh {
     datasets_gen::generate("spx", Some(6000), 1).unwrap()
@@ -55,7 +44,7 @@ fn render(
     assert_eq!(f.image.non_finite_pixels(), 0, "{name}");
     if name.starts_with("vtk-") {
         assert!(
-            r.external_bytes().is_some_and(|b| b > 1 << 20),
+            r.memory().external_bytes.is_some_and(|b| b > 1 << 20),
             "{name}: helper RSS"
         );
         assert!(

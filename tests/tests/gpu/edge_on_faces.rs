@@ -1,7 +1,7 @@
 //! ptint and hapt where a face is seen edge-on in perspective (its plane through the eye): the
 //! lattice of `hard-zero-volume` viewed from straight above has such faces, whose zero-area fan
 //! triangles the GPU rasterizer covered through its own rounding with extrapolated attributes
-//! (α 0.996 at pixel (45, 42) where the reference has 0.557; issue #19). Within cpu-pt's error.
+//! (α 0.996 at pixel (45, 42) where the reference has 0.557). Within cpu-pt's error.
 
 use algorithms::camera::{Camera, Projection, View};
 use algorithms::metrics::compare;

@@ -1,4 +1,4 @@
-//! Lossless round trips between the mesh formats (foundation issue, "Done when").
+//! Lossless round trips between the mesh formats.
 
 use algorithms::io::{self, LoadOptions};
 use algorithms::Mesh;

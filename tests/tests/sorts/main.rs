@@ -1,0 +1,4 @@
+//! The visibility sorts, one module per part.
+
+mod bcc_implicit;
+mod xmpvo;

@@ -526,6 +526,7 @@ impl PeerProcess {
         let _ = f.take(4096).read_to_end(&mut tail);
         let tail = String::from_utf8_lossy(&tail);
         tail.lines()
+            .map(plain_text)
             .rev()
             .find(|l| !l.trim().is_empty())
             .map(|l| format!(": {}", l.trim().chars().take(300).collect::<String>()))
@@ -597,6 +598,28 @@ fn exited(pid: i32) -> bool {
     }
 }
 
+/// A log line as plain text for a one-line note: terminal colour sequences (`ESC [ … letter`)
+/// and other control characters left out.
+fn plain_text(line: &str) -> String {
+    let mut out = String::with_capacity(line.len());
+    let mut chars = line.chars().peekable();
+    while let Some(c) = chars.next() {
+        if c == '\u{1b}' {
+            if chars.peek() == Some(&'[') {
+                chars.next();
+                for d in chars.by_ref() {
+                    if d.is_ascii_alphabetic() {
+                        break;
+                    }
+                }
+            }
+        } else if !c.is_control() || c == '\t' {
+            out.push(c);
+        }
+    }
+    out
+}
+
 /// The processes whose process group is `pgid` (from /proc; empty elsewhere).
 pub fn group_members(pgid: i32) -> Vec<i32> {
     let Ok(entries) = std::fs::read_dir("/proc") else {
@@ -625,4 +648,30 @@ fn vm_hwm(pid: i32) -> Option<u64> {
     let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
     let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kb * 1024)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn log_lines_lose_colour_sequences_and_control_characters() {
+        assert_eq!(
+            plain_text("\u{1b}[0m\u{1b}[33m2026 WARN| Undefined edge case\u{1b}[0m\u{7}"),
+            "2026 WARN| Undefined edge case"
+        );
+        assert_eq!(plain_text("a\tb"), "a\tb");
+    }
+
+    #[test]
+    fn command_lines_quote_what_a_shell_would_split() {
+        let l = Launch {
+            program: "/bin/my peer".into(),
+            args: vec!["--x=1".into(), "it's".into()],
+            cwd: None,
+            env: Vec::new(),
+            files: Vec::new(),
+        };
+        assert_eq!(l.command_line(), "'/bin/my peer' --x=1 'it'\\''s'");
+    }
 }

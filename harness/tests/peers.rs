@@ -70,12 +70,30 @@ fn build_cpp_examples() {
     });
 }
 
-/// A private temporary directory, also used as the peers' TMPDIR.
-fn tmpdir(tag: &str) -> PathBuf {
+/// A private temporary directory, also used as the peers' TMPDIR: removed when the test
+/// passes, kept (for a look) when it fails.
+struct TmpDir(PathBuf);
+
+impl std::ops::Deref for TmpDir {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl Drop for TmpDir {
+    fn drop(&mut self) {
+        if !std::thread::panicking() {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+}
+
+fn tmpdir(tag: &str) -> TmpDir {
     let d = std::env::temp_dir().join(format!("tetbench-peers-test-{tag}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(d.join("tmp")).unwrap();
-    d
+    TmpDir(d)
 }
 
 fn tetbench(dir: &Path) -> Command {

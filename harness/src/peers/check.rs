@@ -8,7 +8,7 @@
 //!    non-convex meshes and the hard cases the family should survive, each in ortho and persp
 //!    projection and with every integrator the peer offers, plus one non-square image. Each
 //!    image is compared with `reference` (the exact ray caster) by RMSE against the bound of its
-//!    integrator's class ([`bound`], `docs/peers.md`); a failed request, a wrong-size image or a
+//!    integrator's class ([`conformance_bound`](algorithms::render::peer::conformance_bound), `docs/peers.md`); a failed request, a wrong-size image or a
 //!    non-finite pixel fails the scene with the reason.
 //! 3. **Report.** A Markdown table with the error, the request's wall time, the peer's own
 //!    time (the sum of its stages) and its peak resident set per tet for each scene.
@@ -21,7 +21,9 @@ use algorithms::camera::{Camera, Projection, View};
 use algorithms::image::Image;
 use algorithms::metrics;
 use algorithms::render::peer::process::PeerProcess;
-use algorithms::render::peer::{protocol, PeerFamily, PeerRenderer, PeerSpec};
+use algorithms::render::peer::{
+    conformance_bound as bound, protocol, PeerFamily, PeerRenderer, PeerSpec,
+};
 use algorithms::render::{self, RenderOptions, Renderer};
 use algorithms::{Error, Mesh, Result, TransferFunction};
 use serde_json::json;
@@ -97,15 +99,6 @@ pub fn scenes(family: PeerFamily) -> Vec<Scene> {
         PeerFamily::Other => &[],
     };
     COMMON.iter().chain(extra).copied().collect()
-}
-
-/// The RMSE bound against `reference` of an integrator's class (docs/peers.md, "Conformance").
-pub fn bound(integrator: &str) -> f64 {
-    match integrator {
-        "exact" => 2e-3,
-        "partial" | "preint" => 1e-2,
-        _ => 2e-2,
-    }
 }
 
 /// One line of the report.

@@ -6,12 +6,19 @@
 //! registered; an entry that declares an integrator without a bound fails. The wrapper pattern
 //! (`jbu:`) has no integrators of its own and is tested around every renderer in `jbu`. GPU renderers run
 //! on whatever adapter there is (lavapipe in CI); external ones (the VTK peers) when
-//! `TETBENCH_VTK_PYTHON` is set, as `vtk_peers` decides.
+//! `TETBENCH_VTK_PYTHON` is set, as `vtk_peers` decides. The `pt` and `raycasting` peers of
+//! `peers/examples/peers.toml` are registered first, as the command line registers declared
+//! peers, and held to their integrator class's bound (docs/peers.md): that needs `make`, `g++`
+//! and a `python3` with numpy, as CI has.
 
 use algorithms::camera::{Camera, Projection, View};
 use algorithms::metrics::compare;
+use algorithms::render::peer::{self, decl, PeerFamily};
 use algorithms::render::{self, Family, RenderOptions, RendererInfo, REGISTRY};
 use algorithms::{Mesh, TransferFunction};
+use std::path::Path;
+use std::process::Command;
+use std::sync::OnceLock;
 use tetbench_tests::test_util::{gpu_available, vtk_enabled};
 
 const SIZE: u32 = 48;
@@ -24,11 +31,49 @@ fn views() -> [View; 2] {
     [View::new(0.0, 0.0), View::new(37.0, 21.0)]
 }
 
+/// Registers the drawing peers of `peers/examples/peers.toml` (once per process) and returns
+/// their entries: the C++ ones built with `make`, `python3` taken as one that has numpy.
+fn example_peers() -> Vec<&'static RendererInfo> {
+    static ONCE: OnceLock<()> = OnceLock::new();
+    ONCE.get_or_init(|| {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        let make = Command::new("make")
+            .arg("-C")
+            .arg(root.join("peers/examples/cpp"))
+            .output()
+            .expect("run make (the C++ example peers need make and g++)");
+        assert!(
+            make.status.success(),
+            "building the C++ example peers failed: {}",
+            String::from_utf8_lossy(&make.stderr)
+        );
+        let has_numpy = |py: &str| {
+            Command::new(py)
+                .args(["-c", "import numpy"])
+                .output()
+                .is_ok_and(|o| o.status.success())
+        };
+        let python = ["python3", "/usr/bin/python3"]
+            .into_iter()
+            .find(|py| has_numpy(py))
+            .expect("the Python example peers need a python3 with numpy");
+        let mut specs = decl::load_file(&root.join("peers/examples/peers.toml")).unwrap();
+        specs.retain(|s| s.family != PeerFamily::Other);
+        for s in &mut specs {
+            if s.launch.program == "python3" {
+                s.launch.program = python.into();
+            }
+        }
+        peer::register(specs).unwrap();
+    });
+    peer::registered().iter().map(|r| r.info).collect()
+}
+
 /// Whether `r` can run here; `false` says why on stderr (a requirement that is not met fails
 /// inside the helpers instead).
 fn runs_here(r: &RendererInfo) -> bool {
     if r.family == Family::External {
-        return vtk_enabled(r.name);
+        return peer::find(r.name).is_some() || vtk_enabled(r.name);
     }
     !r.needs_gpu || gpu_available(r.name)
 }
@@ -66,7 +111,14 @@ fn worst_rmse(name: &str, integrator: &str, mesh: &Mesh, tf: &TransferFunction) 
 fn every_registered_renderer_matches_the_reference_within_its_bound() {
     let (mesh, tf) = (mesh(), TransferFunction::preset("default").unwrap());
     let mut report = Vec::new();
-    for r in REGISTRY.iter().filter(|r| !render::is_wrapper(r.name)) {
+    let peers = example_peers();
+    assert!(peers.len() >= 2, "no example peers registered");
+    for r in REGISTRY
+        .iter()
+        .copied()
+        .chain(peers)
+        .filter(|r| !render::is_wrapper(r.name))
+    {
         for integ in r.integrators {
             let bound = r
                 .max_rmse

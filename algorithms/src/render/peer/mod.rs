@@ -153,6 +153,17 @@ pub fn spec_of(name: &str) -> Option<Result<PeerSpec>> {
     }
 }
 
+/// The RMSE bound against `reference` that a declared peer is held to, by its integrator's
+/// class (docs/peers.md, "Conformance"). A declaration states no bound of its own, so
+/// `tetbench peer check` and the registry's correctness test both apply these.
+pub fn conformance_bound(integrator: &str) -> f64 {
+    match integrator {
+        "exact" => 2e-3,
+        "partial" | "preint" => 1e-2,
+        _ => 2e-2,
+    }
+}
+
 fn leak(s: &str) -> &'static str {
     Box::leak(s.to_string().into_boxed_str())
 }
@@ -170,6 +181,10 @@ fn info_of(spec: &PeerSpec) -> RendererInfo {
             doc: leak(&p.doc),
         })
         .collect();
+    let max_rmse: Vec<(&'static str, f64)> = integrators
+        .iter()
+        .map(|i| (*i, conformance_bound(i)))
+        .collect();
     RendererInfo {
         name: leak(&spec.name),
         description: leak(&spec.description),
@@ -181,8 +196,7 @@ fn info_of(spec: &PeerSpec) -> RendererInfo {
         default_integrator: integrators.first().copied().unwrap_or(""),
         integrators: Box::leak(integrators.into_boxed_slice()),
         params: Box::leak(params.into_boxed_slice()),
-        // A declaration states no bound against the reference yet.
-        max_rmse: &[],
+        max_rmse: Box::leak(max_rmse.into_boxed_slice()),
         make: |info, o| {
             let r = find(info.name).ok_or_else(|| {
                 Error::Internal(format!("peer '{}' is not registered", info.name))

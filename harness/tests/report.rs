@@ -130,8 +130,9 @@ fn the_quick_report_loads_in_chromium_without_console_messages() {
     };
     let d = tmpdir("quick");
     let out = d.join("results");
-    // One PTINT table (an experiment, with its figure) and one of the BCC paper (its own
-    // table, no figure); the ray caster with full pre-integration panics in the figure's cell.
+    // One PTINT table (the exact reference as its yardstick) and one of the BCC paper (the
+    // analytic ground truth as its yardstick), each with its figure; the ray caster with full
+    // pre-integration panics in the figure's cell.
     let o = Command::new(env!("CARGO_BIN_EXE_tetbench"))
         .args([
             "reproduce",
@@ -163,11 +164,15 @@ fn the_quick_report_loads_in_chromium_without_console_messages() {
         "index.html",
         "ptint-table2-images.png",
         "ptint-table2-images.svg",
+        "bcc_pt-images.png",
+        "bcc_pt-images.svg",
     ] {
         assert!(out.join(f).is_file(), "{f} missing");
     }
     let html = std::fs::read_to_string(out.join("index.html")).unwrap();
     check_links(&html, &out);
+    // Each figure is shown once, in its section (not again from the table's note).
+    assert_eq!(html.matches("src=\"ptint-table2-images.png\"").count(), 1);
     assert!(
         html.contains("raycast/preint: internal error: panicked"),
         "the failure is not listed"

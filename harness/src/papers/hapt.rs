@@ -6,8 +6,8 @@ use algorithms::render::{self, Family};
 use algorithms::Result;
 
 use super::common::{
-    base_config, common_notes, dataset, failed_cells, measured, mesh_used, pt_family, ray_casters,
-    rotating, sizes_of, variants, want, Measured,
+    base_config, common_notes, dataset, external_note, external_peers, failed_cells, measured,
+    mesh_used, pt_family, ray_casters, rotating, sizes_of, variants, want, Measured,
 };
 use super::{Ctx, Done, PaperTable};
 use crate::bench::Outcome;
@@ -347,6 +347,8 @@ fn hapt_t2_exp(ctx: &Ctx) -> std::result::Result<Config, String> {
         }
     }
     c.renderers.extend(ray_casters(false));
+    // The other programs' renderers (VTK's mappers, declared peers) in DVR, beside ours.
+    c.renderers.extend(external_peers());
     c.views = rotating(ctx, 3, 3);
     Ok(c)
 }
@@ -443,6 +445,7 @@ fn hapt_t2_build(ctx: &Ctx, cfg: &Config, o: &Outcome) -> Table {
         }
     }
     t.notes = common_notes(ctx, cfg);
+    t.notes.push(external_note());
     t.notes.push("ISO and DVR+ISO: iso-surfaces at 30 % and 60 % of the field's range, drawn by the renderers that take `mode` and `iso` parameters (hapt), in full runs only. They have no RMSE: the exact reference draws no iso-surfaces, and an image error against the DVR reference would measure the surfaces, not the renderer.".into());
     t.notes.push("Paper: HAPT on a Xeon E5345 with a GeForce 8800 GTX; turbjet (time-varying, 150 × 1 M tets, 17.5 fps DVR) is not reproduced.".into());
     t

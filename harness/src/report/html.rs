@@ -47,11 +47,12 @@ impl Section {
         self.columns = t.columns.clone();
         self.hardware = t.hardware.clone();
         self.rows = t.rows.clone();
-        // The plots are shown as images; their Markdown links are not repeated.
+        // The plots and the image figure are shown as images; their Markdown links are not
+        // repeated.
         self.notes = t
             .notes
             .iter()
-            .filter(|n| !n.starts_with("Plot: "))
+            .filter(|n| !n.starts_with("Plot: ") && !n.starts_with("Images: "))
             .cloned()
             .collect();
         self
@@ -313,7 +314,7 @@ fn section(h: &mut String, s: &Section, fig_index: &mut usize) {
         let hits = serde_json::to_string(&f.hits).unwrap_or_else(|_| "[]".into());
         let _ = writeln!(
             h,
-            "<figure class=\"images\"><img class=\"fig\" id=\"fig{}\" src=\"{}\" width=\"{}\" height=\"{}\" alt=\"image figure of {}\" data-hits=\"{}\" data-scale=\"{:e} to {:e}\"><figcaption>{} Click a cell to see it at 1:1 (<a href=\"{}\">SVG</a>).</figcaption></figure>",
+            "<figure class=\"images\"><img class=\"fig\" id=\"fig{}\" src=\"{}\" width=\"{}\" height=\"{}\" alt=\"image figure of {}\" data-hits=\"{}\" data-scale=\"{:e} to {:e}\"><figcaption>{}<br>Click a cell to see it at 1:1 (<a href=\"{}\">SVG</a>).</figcaption></figure>",
             fig_index,
             esc(&f.png),
             f.width,
@@ -342,7 +343,7 @@ th[data-dir=asc]::after{content:' \\25B2'}th[data-dir=desc]::after{content:' \\2
 tbody tr:nth-child(even){background:#fafafa}
 td.fail,.fail{color:#b41e1e}.skip{color:#8a6d00}
 .small,.status,.about{font-size:13px}.status{color:#444}
-ul.notes{font-size:13px}
+ul.notes{font-size:13px}ul.notes img{max-width:100%;height:auto}
 figure{margin:12px 0}figure.plot img{max-width:100%;height:auto;border:1px solid #ddd}
 img.fig{max-width:100%;height:auto;cursor:zoom-in;border:1px solid #ddd}
 figcaption{font-size:13px;color:#333}
@@ -412,6 +413,19 @@ mod tests {
         );
         assert_eq!(inline_md("[not a link"), "[not a link");
         assert_eq!(esc("<\"&'>"), "&lt;&quot;&amp;&#39;&gt;");
+    }
+
+    #[test]
+    fn a_tables_plot_and_figure_notes_are_not_repeated() {
+        let t = Table {
+            notes: vec![
+                "Plot: ![p](t-p.png)".into(),
+                "Images: ![f](t-images.png)".into(),
+                "Kept.".into(),
+            ],
+            ..Default::default()
+        };
+        assert_eq!(Section::default().with_table(&t).notes, vec!["Kept."]);
     }
 
     #[test]

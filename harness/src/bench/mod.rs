@@ -151,14 +151,13 @@ pub fn preflight(exp: &Experiment, out: &Path) -> Result<()> {
 }
 
 /// Prints, once each, the command line of every peer among `renderers` (before the first
-/// frame, so that the user sees what will run).
+/// frame, so that the user sees what will run). Once a process: `reproduce` runs many
+/// experiments with the same peers.
 pub fn announce_peers<'a>(renderers: impl IntoIterator<Item = &'a str>) {
-    let mut done: Vec<&str> = Vec::new();
     for name in renderers {
-        if done.contains(&name) {
+        if !first_announcement(name) {
             continue;
         }
-        done.push(name);
         if let Some(Ok(spec)) = render::peer::spec_of(name) {
             let dir = match &spec.launch.cwd {
                 Some(d) => d.display().to_string(),
@@ -171,6 +170,17 @@ pub fn announce_peers<'a>(renderers: impl IntoIterator<Item = &'a str>) {
             );
         }
     }
+}
+
+/// Whether `name` is announced for the first time in this process.
+fn first_announcement(name: &str) -> bool {
+    static DONE: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
+    let mut done = DONE.lock().unwrap_or_else(|e| e.into_inner());
+    if done.iter().any(|n| n == name) {
+        return false;
+    }
+    done.push(name.to_string());
+    true
 }
 
 /// Opens `results.csv` for this run: refuses a directory holding results unless resumed or
@@ -560,4 +570,14 @@ fn write_meta(exp: &Experiment, opts: &RunOptions) -> Result<()> {
         crate::measure::shared_fixed_bytes(),
     );
     std::fs::write(&p, text).map_err(|e| Error::io(&p, e))
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn each_peer_is_announced_once_a_process() {
+        assert!(super::first_announcement("announce-test-a"));
+        assert!(!super::first_announcement("announce-test-a"));
+        assert!(super::first_announcement("announce-test-b"));
+    }
 }

@@ -27,10 +27,20 @@ impl Error {
 }
 
 impl fmt::Display for Error {
+    /// One line, always: a line break inside the message (a file name with a newline in it, a
+    /// panic's message) is written as `\n` (`\r`), so that the message stays one line.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Error::Input(m) | Error::Io(m) => f.write_str(m),
-            Error::Internal(m) => write!(f, "internal error: {m}"),
+        let m = match self {
+            Error::Input(m) | Error::Io(m) => m,
+            Error::Internal(m) => {
+                f.write_str("internal error: ")?;
+                m
+            }
+        };
+        if m.contains(['\n', '\r']) {
+            f.write_str(&m.replace('\n', "\\n").replace('\r', "\\r"))
+        } else {
+            f.write_str(m)
         }
     }
 }
@@ -38,3 +48,20 @@ impl fmt::Display for Error {
 impl std::error::Error for Error {}
 
 pub type Result<T> = std::result::Result<T, Error>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_line_break_in_a_message_stays_on_one_line() {
+        let e = Error::io(
+            std::path::Path::new("a\nb.off"),
+            std::io::Error::from(std::io::ErrorKind::NotFound),
+        );
+        let s = e.to_string();
+        assert!(s.starts_with("a\\nb.off: ") && !s.contains('\n'), "{s}");
+        let e = Error::Internal("panicked: x\r\ny".into()).to_string();
+        assert_eq!(e, "internal error: panicked: x\\r\\ny");
+    }
+}

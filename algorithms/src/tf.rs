@@ -104,7 +104,7 @@ impl TransferFunction {
                 PRESETS.join(", ")
             )));
         }
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let text = crate::io::read_input_string(path, crate::io::files::MAX_SETTINGS_BYTES)?;
         Self::from_json(&text, name_or_path)
     }
 

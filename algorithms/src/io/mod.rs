@@ -1,6 +1,7 @@
 //! Mesh files (CONVENTIONS §9): readers for tetrahedral `.off`, VTK legacy `.vtk`, VTK XML `.vtu`
 //! and PLOT3D structured grids; writers for `.off`, `.vtk` and `.vtu` ([`writers`]). Every
 //! reader returns `Error::Input` with one line naming the file and the line or field at fault.
+//! Every file is read through [`files`] (regular files only, sizes bounded).
 
 use std::path::{Path, PathBuf};
 
@@ -45,6 +46,7 @@ pub struct LoadOptions {
 }
 
 pub mod fields;
+pub mod files;
 pub mod off;
 pub mod plot3d;
 pub mod split;
@@ -53,41 +55,12 @@ pub mod vtk_types;
 pub mod vtu;
 pub mod writers;
 
+pub use files::{atomic_write, open_input, read_input, read_input_string};
 pub use plot3d::read_plot3d;
 pub use vtk::read_vtk;
 pub use vtu::read_vtu;
 pub use writers::vtk::write_vtk;
 pub use writers::vtu::write_vtu;
-
-/// Writes a file through a temporary sibling and renames it into place, so that a failure never
-/// leaves a half-written output.
-pub fn atomic_write(
-    path: &Path,
-    body: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> std::io::Result<()>,
-) -> Result<()> {
-    let dir = path.parent().filter(|d| !d.as_os_str().is_empty());
-    let name = path
-        .file_name()
-        .ok_or_else(|| Error::Input(format!("{}: not a file name", path.display())))?;
-    let tmp = dir.unwrap_or(Path::new(".")).join(format!(
-        ".{}.tmp{}",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
-    let result = (|| {
-        let f = std::fs::File::create(&tmp)?;
-        let mut w = std::io::BufWriter::new(f);
-        body(&mut w)?;
-        use std::io::Write;
-        w.flush()?;
-        w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    result.map_err(|e| {
-        std::fs::remove_file(&tmp).ok();
-        Error::io(path, e)
-    })
-}
 
 /// The NASA grids known by short name (CONVENTIONS §9): name, xyz file, default scalar.
 pub const SHORT_NAMES: [(&str, &str, &str); 3] = [

@@ -15,7 +15,7 @@ use crate::mesh::Mesh;
 
 /// Reads a `.off` file.
 pub fn read_off(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
-    let text = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let text = super::read_input(path, super::files::ANY_SIZE)?;
     parse_off(&text, &path.display().to_string(), opts)
 }
 

@@ -36,7 +36,7 @@ pub fn read_plot3d(xyz: &Path, opts: &LoadOptions) -> Result<Mesh> {
         Some(q) => q.clone(),
         None => q_path(xyz)?,
     };
-    let xyz_bytes = std::fs::read(xyz).map_err(|e| Error::io(xyz, e))?;
+    let xyz_bytes = crate::io::read_input(xyz, crate::io::files::ANY_SIZE)?;
     if !q.exists() {
         return Err(Error::input(
             xyz.display(),
@@ -46,7 +46,7 @@ pub fn read_plot3d(xyz: &Path, opts: &LoadOptions) -> Result<Mesh> {
             ),
         ));
     }
-    let q_bytes = std::fs::read(&q).map_err(|e| Error::io(&q, e))?;
+    let q_bytes = crate::io::read_input(&q, crate::io::files::ANY_SIZE)?;
     parse_plot3d(
         &xyz_bytes,
         &q_bytes,

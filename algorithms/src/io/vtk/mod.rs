@@ -30,7 +30,7 @@ use sections::Sections;
 
 /// Reads a VTK legacy file (see the module docs).
 pub fn read_vtk(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::io::read_input(path, crate::io::files::ANY_SIZE)?;
     parse_vtk(&bytes, &path.display().to_string(), opts)
 }
 

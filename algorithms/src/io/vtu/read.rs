@@ -19,7 +19,7 @@ use crate::mesh::Mesh;
 
 /// Reads a VTK XML UnstructuredGrid file (see the module docs).
 pub fn read_vtu(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::io::read_input(path, crate::io::files::ANY_SIZE)?;
     parse_vtu(&bytes, &path.display().to_string(), opts)
 }
 

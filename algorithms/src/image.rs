@@ -23,13 +23,31 @@ pub fn quantize(v: f32) -> u8 {
 }
 
 impl Image {
-    /// A transparent black image.
+    /// The most pixels an image read from a file may have: the largest image tetbench renders
+    /// (16384 × 16384). A header that announces more is refused before anything is allocated.
+    pub const MAX_PIXELS: u64 = 16384 * 16384;
+
+    /// A transparent black image. Panics where memory cannot hold it: images whose size comes
+    /// from outside (a frame of a renderer, a file) are made with [`Image::try_new`].
     pub fn new(width: u32, height: u32) -> Image {
         Image {
             width,
             height,
             pixels: vec![[0.0; 4]; width as usize * height as usize],
         }
+    }
+
+    /// A transparent black image, or an error naming its size when memory cannot hold it
+    /// (see [`crate::alloc::try_vec`]).
+    pub fn try_new(width: u32, height: u32) -> Result<Image> {
+        let n = width as usize * height as usize;
+        let pixels = crate::alloc::try_vec(n, [0.0; 4])
+            .map_err(|e| Error::Input(format!("image {width}x{height}: {e}")))?;
+        Ok(Image {
+            width,
+            height,
+            pixels,
+        })
     }
 
     #[inline]
@@ -96,7 +114,9 @@ impl Image {
     }
 
     fn write_png(&self, path: &Path) -> Result<()> {
-        let data: Vec<u8> = self.pixels.iter().flatten().map(|&v| quantize(v)).collect();
+        let mut data = crate::alloc::try_vec_with_capacity(4 * self.pixels.len())
+            .map_err(|e| Error::Input(format!("{}: {e}", path.display())))?;
+        data.extend(self.pixels.iter().flatten().map(|&v| quantize(v)));
         atomic_write(path, |out| {
             let mut enc = png::Encoder::new(out, self.width, self.height);
             enc.set_color(png::ColorType::Rgba);
@@ -114,60 +134,142 @@ fn ext(path: &Path) -> String {
         .unwrap_or_default()
 }
 
+/// Checks the size an image file's header announces before anything of that size is
+/// allocated: at most [`Image::MAX_PIXELS`], and no more raw bytes than a file of `file_len`
+/// bytes can hold at the best ratio its compression reaches (`max_ratio`; 1 uncompressed).
+fn check_announced(
+    path: &Path,
+    (w, h): (u64, u64),
+    raw_per_pixel: u64,
+    file_len: u64,
+    max_ratio: u64,
+) -> Result<()> {
+    let pixels = w.saturating_mul(h);
+    if pixels > Image::MAX_PIXELS {
+        return Err(Error::Input(format!(
+            "{}: its header announces {w}x{h} pixels, more than the {} an image may have",
+            path.display(),
+            Image::MAX_PIXELS
+        )));
+    }
+    let raw = pixels.saturating_mul(raw_per_pixel);
+    if raw > file_len.saturating_mul(max_ratio).saturating_add(4096) {
+        return Err(Error::Input(format!(
+            "{}: its header announces {w}x{h} pixels ({raw} bytes of samples), more than its {file_len} bytes can hold: a damaged or forged file",
+            path.display()
+        )));
+    }
+    Ok(())
+}
+
+/// The best ratio of raw to stored bytes an EXR compression reaches (deflate's is about
+/// 1032:1; run-length's 64:1 on bytes; PIZ's Huffman runs stay below deflate's); generous, as
+/// it only has to catch a header that lies by orders of magnitude.
+fn exr_max_ratio(c: exr::compression::Compression) -> u64 {
+    use exr::compression::Compression as C;
+    match c {
+        C::Uncompressed => 1,
+        C::RLE => 64,
+        _ => 4096,
+    }
+}
+
 fn read_exr(path: &Path) -> Result<Image> {
+    use std::io::Seek;
     let bad =
         |e: exr::error::Error| crate::Error::input(path.display(), format!("bad EXR file: {e}"));
-    let image = exr::prelude::read_first_rgba_layer_from_file(
-        path,
-        |res, _| self::Image::new(res.width() as u32, res.height() as u32),
-        |img: &mut self::Image, pos, (r, g, b, a): (f32, f32, f32, f32)| {
-            img.set(pos.x() as u32, pos.y() as u32, [r, g, b, a])
-        },
-    )
-    .map_err(bad)?;
+    let file = crate::io::open_input(path)?;
+    let len = file.metadata().map_err(|e| Error::io(path, e))?.len();
+    let mut reader = std::io::BufReader::new(file);
+    let meta = exr::meta::MetaData::read_from_buffered(&mut reader, false).map_err(bad)?;
+    for h in &meta.headers {
+        let size = (h.layer_size.width() as u64, h.layer_size.height() as u64);
+        let per_pixel = h.channels.bytes_per_pixel as u64;
+        check_announced(path, size, per_pixel, len, exr_max_ratio(h.compression))?;
+    }
+    reader
+        .seek(std::io::SeekFrom::Start(0))
+        .map_err(|e| Error::io(path, e))?;
+    // The image is allocated here, fallibly, at the size of the largest layer (the one read is
+    // no larger); the reader's callback then takes it.
+    let (w, h) = meta
+        .headers
+        .iter()
+        .map(|h| (h.layer_size.width() as u32, h.layer_size.height() as u32))
+        .max_by_key(|&(w, h)| w as u64 * h as u64)
+        .unwrap_or((0, 0));
+    let room = std::cell::Cell::new(Some(Image::try_new(w, h)?));
+    use exr::prelude::{ReadChannels, ReadLayers};
+    let image = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .rgba_channels(
+            move |res, _| {
+                let (w, h) = (res.width() as u32, res.height() as u32);
+                let mut img = room.take().unwrap_or_else(|| self::Image {
+                    width: 0,
+                    height: 0,
+                    pixels: Vec::new(),
+                });
+                img.pixels.truncate(w as usize * h as usize);
+                img.pixels.resize(w as usize * h as usize, [0.0; 4]);
+                img.width = w;
+                img.height = h;
+                img
+            },
+            |img: &mut self::Image, pos, (r, g, b, a): (f32, f32, f32, f32)| {
+                img.set(pos.x() as u32, pos.y() as u32, [r, g, b, a])
+            },
+        )
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(reader)
+        .map_err(bad)?;
     Ok(image.layer_data.channel_data.pixels)
 }
 
 fn read_png(path: &Path) -> Result<Image> {
     let bad = |e: String| Error::input(path.display(), format!("bad PNG file: {e}"));
-    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let file = crate::io::open_input(path)?;
+    let len = file.metadata().map_err(|e| Error::io(path, e))?.len();
     let mut dec = png::Decoder::new(std::io::BufReader::new(file));
     dec.set_transformations(png::Transformations::normalize_to_color8());
     let mut reader = dec.read_info().map_err(|e| bad(e.to_string()))?;
     let size = reader
         .output_buffer_size()
         .ok_or_else(|| bad("image too large".into()))?;
-    let mut buf = vec![0u8; size];
+    // PNG's samples are deflated: at best about 1032:1.
+    let info = reader.info();
+    let (w, h) = (info.width as u64, info.height as u64);
+    check_announced(path, (w, h), (size as u64 / (w * h).max(1)).max(1), len, 1100)?;
+    let mut buf = crate::alloc::try_vec(size, 0u8)
+        .map_err(|e| Error::Input(format!("{}: {e}", path.display())))?;
     let info = reader
         .next_frame(&mut buf)
         .map_err(|e| bad(e.to_string()))?;
     let (w, h) = (info.width, info.height);
     let n = w as usize * h as usize;
-    let to_f = |v: u8| v as f32 / 255.0;
-    let px: Vec<[f32; 4]> = match info.color_type {
-        png::ColorType::Rgba => buf[..n * 4]
-            .chunks_exact(4)
-            .map(|c| [to_f(c[0]), to_f(c[1]), to_f(c[2]), to_f(c[3])])
-            .collect(),
-        png::ColorType::Rgb => buf[..n * 3]
-            .chunks_exact(3)
-            .map(|c| [to_f(c[0]), to_f(c[1]), to_f(c[2]), 1.0])
-            .collect(),
-        png::ColorType::GrayscaleAlpha => buf[..n * 2]
-            .chunks_exact(2)
-            .map(|c| [to_f(c[0]), to_f(c[0]), to_f(c[0]), to_f(c[1])])
-            .collect(),
-        png::ColorType::Grayscale => buf[..n]
-            .iter()
-            .map(|&c| [to_f(c), to_f(c), to_f(c), 1.0])
-            .collect(),
+    let mut px = crate::alloc::try_vec_with_capacity::<[f32; 4]>(n)
+        .map_err(|e| Error::Input(format!("{}: {e}", path.display())))?;
+    let pixel: fn(&[u8]) -> [f32; 4] = match info.color_type {
+        png::ColorType::Rgba => |c| [to_f(c[0]), to_f(c[1]), to_f(c[2]), to_f(c[3])],
+        png::ColorType::Rgb => |c| [to_f(c[0]), to_f(c[1]), to_f(c[2]), 1.0],
+        png::ColorType::GrayscaleAlpha => |c| [to_f(c[0]), to_f(c[0]), to_f(c[0]), to_f(c[1])],
+        png::ColorType::Grayscale => |c| [to_f(c[0]), to_f(c[0]), to_f(c[0]), 1.0],
         other => return Err(bad(format!("unsupported colour type {other:?}"))),
     };
+    let channels = info.color_type.samples();
+    px.extend(buf[..n * channels].chunks_exact(channels).map(pixel));
     Ok(Image {
         width: w,
         height: h,
         pixels: px,
     })
+}
+
+/// 8-bit sample to [0, 1].
+fn to_f(v: u8) -> f32 {
+    v as f32 / 255.0
 }
 
 #[cfg(test)]

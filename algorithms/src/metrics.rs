@@ -8,7 +8,8 @@ use crate::image::{quantize, Image};
 pub struct ImageError {
     /// sqrt of the mean over pixels and the 3 RGB channels of (A − B)².
     pub rmse: f64,
-    /// 20·log10(1 / rmse); +inf for identical images.
+    /// 20·log10(1 / rmse); +inf for identical images; NaN (as `rmse` and `max_abs`) when a
+    /// pixel of either image is NaN.
     pub psnr: f64,
     /// Largest |A − B| over pixels and RGB channels.
     pub max_abs: f64,
@@ -50,7 +51,10 @@ pub fn compare(a: &Image, b: &Image) -> Result<ImageError> {
         for c in 0..3 {
             let d = pa[c] as f64 - pb[c] as f64;
             sq += d * d;
-            max_abs = max_abs.max(d.abs());
+            // A NaN difference makes the largest one NaN (f64::max would skip it).
+            if d.abs() > max_abs || d.is_nan() {
+                max_abs = d.abs();
+            }
         }
         let qa = pa.map(quantize);
         let qb = pb.map(quantize);
@@ -76,7 +80,8 @@ pub fn compare(a: &Image, b: &Image) -> Result<ImageError> {
     let rmse = (sq / n).sqrt();
     Ok(ImageError {
         rmse,
-        psnr: if rmse > 0.0 {
+        // +inf only for identical images: a NaN error stays NaN.
+        psnr: if rmse > 0.0 || rmse.is_nan() {
             20.0 * (1.0 / rmse).log10()
         } else {
             f64::INFINITY
@@ -99,6 +104,27 @@ pub fn compare(a: &Image, b: &Image) -> Result<ImageError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A NaN pixel makes the error NaN, never "identical" (psnr +inf) or "no difference"
+    /// (max_abs 0).
+    #[test]
+    fn nan_pixels_give_nan_errors() {
+        let a = Image {
+            width: 2,
+            height: 2,
+            pixels: vec![[f32::NAN; 4]; 4],
+        };
+        let b = Image::new(2, 2);
+        for (x, y) in [(&a, &b), (&b, &a), (&a, &a)] {
+            let e = compare(x, y).unwrap();
+            assert!(e.rmse.is_nan() && e.psnr.is_nan() && e.max_abs.is_nan(), "{e:?}");
+        }
+        let mut c = Image::new(2, 2);
+        c.set(1, 1, [0.5, 0.0, 0.0, 1.0]);
+        c.set(0, 0, [f32::NAN, 0.0, 0.0, 1.0]);
+        let e = compare(&c, &b).unwrap();
+        assert!(e.max_abs.is_nan(), "{e:?}");
+    }
 
     #[test]
     fn identical_images_have_zero_error() {

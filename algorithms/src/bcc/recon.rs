@@ -491,9 +491,9 @@ fn per_pixel(
     camera: &Camera,
     bbox: &Aabb,
     shade: impl Fn(&mut Vec<(f64, f64)>, DVec3, DVec3, f64, f64) -> [f32; 4] + Sync,
-) -> Image {
+) -> Result<Image> {
     let (w, hgt) = (camera.width, camera.height);
-    let mut img = Image::new(w, hgt);
+    let mut img = Image::try_new(w, hgt)?;
     img.pixels
         .par_chunks_mut(w as usize)
         .enumerate()
@@ -508,7 +508,7 @@ fn per_pixel(
                 }
             }
         });
-    img
+    Ok(img)
 }
 
 fn check_ortho(camera: &Camera) -> Result<()> {
@@ -556,7 +556,7 @@ pub fn raycast(
         sgn(g[(c + 2) % 3] * g[c].signum()),
     ];
     let inv_l = 1.0 / diag;
-    Ok(per_pixel(camera, &bbox, |samples, o, dir, t0, t1| {
+    per_pixel(camera, &bbox, |samples, o, dir, t0, t1| {
         let lat = |t: f64| ((o + t * dir - origin) / h).to_array();
         let value = |t: f64| -> f64 {
             let x = lat(t);
@@ -602,7 +602,7 @@ pub fn raycast(
             }
         }
         integrate(samples, integ, inv_l)
-    }))
+    })
 }
 
 /// Ray-integrates the analytic field `field` over the domain `inside` (a point test; `bbox`
@@ -628,7 +628,7 @@ pub fn ground_truth(
         min: bbox.min - pad,
         max: bbox.max + pad,
     };
-    Ok(per_pixel(camera, &big, |run, o, dir, t0, t1| {
+    per_pixel(camera, &big, |run, o, dir, t0, t1| {
         let at = |t: f64| o + t * dir;
         let mut acc = Segment::default();
         let m = ((t1 - t0) / step).ceil().max(1.0) as usize;
@@ -683,7 +683,7 @@ pub fn ground_truth(
             acc.rgb[2] as f32,
             acc.alpha as f32,
         ]
-    }))
+    })
 }
 
 #[cfg(test)]

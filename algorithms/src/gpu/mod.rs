@@ -297,10 +297,12 @@ impl Gpu {
         rx.recv()
             .map_err(|_| Error::Internal("GPU map callback dropped".into()))?
             .map_err(|e| Error::Internal(format!("GPU buffer map failed: {e}")))?;
-        let data = slice
+        let range = slice
             .get_mapped_range()
-            .map_err(|e| Error::Internal(format!("GPU mapped range: {e}")))?
-            .to_vec();
+            .map_err(|e| Error::Internal(format!("GPU mapped range: {e}")))?;
+        let mut data = crate::alloc::try_vec_with_capacity(range.len())?;
+        data.extend_from_slice(&range);
+        drop(range);
         buf.unmap();
         Ok(data)
     }
@@ -347,7 +349,7 @@ impl Gpu {
         );
         self.queue.submit([enc.finish()]);
         let data = self.map_read(&staging)?;
-        let mut img = Image::new(w, h);
+        let mut img = Image::try_new(w, h)?;
         for y in 0..h as usize {
             let r = &data[y * row as usize..];
             for x in 0..w as usize {

@@ -307,6 +307,21 @@ impl Renderer for CpuPt {
                 .count()
         });
         let pairs = bins.items.len();
+        // The image, and room for the tiles' buffers (together the image's size again): both
+        // must fit, or the frame fails with "out of memory" before any tile is drawn. The room
+        // is a check only (given back at once), as each tile allocates its own buffer.
+        let room = Image::try_new(w, h).and_then(|image| {
+            crate::alloc::try_vec_with_capacity::<[f32; 4]>(ntiles * (TILE * TILE) as usize)?;
+            Ok(image)
+        });
+        let mut image = match room {
+            Ok(image) => image,
+            Err(e) => {
+                sc.bins = bins;
+                self.scratch = sc;
+                return Err(e);
+            }
+        };
         let tiles: Vec<(Vec<[f32; 4]>, u64)> = match (fast, &st.shading) {
             (Some(integ), _) => bins.per_tile(ntiles, |k| {
                 let t = (k as u32 % ntx, k as u32 / ntx);
@@ -346,7 +361,6 @@ impl Renderer for CpuPt {
             ),
         };
         sc.bins = bins;
-        let mut image = Image::new(w, h);
         let mut fragments = 0u64;
         for (k, (buf, nf)) in tiles.iter().enumerate() {
             fragments += nf;

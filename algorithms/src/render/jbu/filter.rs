@@ -154,7 +154,7 @@ pub(super) fn upsample(
     let omega = 1.0 / scale;
     let ux: Vec<f64> = (0..w as usize).map(|i| to_low(i, w, lw, scale)).collect();
     let uy: Vec<f64> = (0..h as usize).map(|j| to_low(j, h, lh, scale)).collect();
-    let mut out = Image::new(w, h);
+    let mut out = Image::try_new(w, h)?;
     let wu = w as usize;
     match params.method {
         Method::Nearest => {

@@ -249,7 +249,7 @@ impl Renderer for RayCaster {
     fn render(&mut self, mesh: &Mesh, camera: &Camera) -> Result<Frame> {
         let t0 = Instant::now();
         let (px, stats) = self.render_f64(mesh, camera)?;
-        let mut image = Image::new(camera.width, camera.height);
+        let mut image = Image::try_new(camera.width, camera.height)?;
         for (o, p) in image.pixels.iter_mut().zip(&px) {
             *o = p.map(|c| c as f32);
         }
@@ -285,7 +285,8 @@ impl RayCaster {
             .as_ref()
             .ok_or_else(|| Error::Internal("raycast: render before prepare".into()))?;
         let w = camera.width.max(1) as usize;
-        let mut px = vec![[0.0f64; 4]; w * camera.height as usize];
+        let mut px = crate::alloc::try_vec(w * camera.height as usize, [0.0f64; 4])
+            .map_err(|e| Error::Input(format!("raycast: {}x{}: {e}", camera.width, camera.height)))?;
         let stats = match &st.shader {
             Shader::Partial(p) => st.tiles(mesh, camera, p, self.projected_walk, &mut px),
             Shader::Exact(e) => st.tiles(mesh, camera, e, false, &mut px),

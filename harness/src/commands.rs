@@ -103,20 +103,27 @@ fn bench_cmd(f: &BenchFlags) -> Result<Finished> {
     Ok(report_failed(&o.rows))
 }
 
-/// Says how many rows failed, and how the command ends.
+/// Says how many rows failed or lack their error, and how the command ends.
 fn report_failed(rows: &[rows::Row]) -> Finished {
-    let failed: Vec<&rows::Row> = rows.iter().filter(|r| crate::sweep::failed(r)).collect();
-    if let Some(first) = failed.first() {
-        eprintln!(
-            "tetbench: {} of {} rows failed (their note column says why; first: {} {}: {})",
-            failed.len(),
-            rows.len(),
-            first.dataset,
-            first.variant,
-            first.note
-        );
+    let mut bad = 0;
+    for (test, what) in [
+        (crate::sweep::failed as fn(&rows::Row) -> bool, "failed"),
+        (crate::sweep::error_missing, "have no error measurement"),
+    ] {
+        let hit: Vec<&rows::Row> = rows.iter().filter(|r| test(r)).collect();
+        if let Some(first) = hit.first() {
+            eprintln!(
+                "tetbench: {} of {} rows {what} (their note column says why; first: {} {}: {})",
+                hit.len(),
+                rows.len(),
+                first.dataset,
+                first.variant,
+                first.note
+            );
+        }
+        bad += hit.len();
     }
-    Finished::with_failed(failed.len())
+    Finished::with_failed(bad)
 }
 
 /// `tetbench merge`: check and merge shard directories, then plot.
@@ -124,8 +131,9 @@ fn merge_cmd(
     out: &std::path::Path,
     shards: &[std::path::PathBuf],
     plots: bool,
+    force: bool,
 ) -> Result<Finished> {
-    let rows = crate::merge::merge(out, shards)?;
+    let rows = crate::merge::merge(out, shards, force)?;
     println!("rows: {}", rows.len());
     println!("results: {}", out.join("results.csv").display());
     let plots = if plots {
@@ -191,6 +199,15 @@ pub fn run(cli: Cli) -> Result<Finished> {
             }
             let a = Image::read(&test)?;
             let b = Image::read(&reference)?;
+            for (img, p) in [(&a, &test), (&b, &reference)] {
+                let n = img.non_finite_pixels();
+                if n > 0 {
+                    eprintln!(
+                        "tetbench: warning: {}: {n} pixels are NaN or infinite; the error is not finite",
+                        p.display()
+                    );
+                }
+            }
             let e = metrics::compare(&a, &b).map_err(|e| {
                 Error::Input(format!(
                     "{} vs {}: {e}",
@@ -198,7 +215,7 @@ pub fn run(cli: Cli) -> Result<Finished> {
                     reference.display()
                 ))
             })?;
-            print_pairs(e.fields().iter().map(|(k, v)| (*k, json!(v))), json);
+            print_pairs(e.fields().iter().map(|(k, v)| (*k, num(*v))), json);
             Ok(Finished::Clean)
         }
         Command::List(_) => {
@@ -225,7 +242,8 @@ pub fn run(cli: Cli) -> Result<Finished> {
             out,
             shards,
             no_plots,
-        } => merge_cmd(&out, &shards, !no_plots),
+            force,
+        } => merge_cmd(&out, &shards, !no_plots, force),
         Command::Reproduce {
             quick,
             out,
@@ -387,15 +405,17 @@ fn print_pairs<'a>(pairs: impl IntoIterator<Item = (&'a str, Value)>, as_json: b
                     (_, _, Some(f)) => println!("{k}: {}", table::plain(f)),
                     _ => println!("{k}: {n}"),
                 },
-                // serde_json turns inf/NaN into null; say what it was.
-                Value::Null => println!("{k}: inf"),
+                // serde_json turns inf and NaN into null (numbers go through `num`, which
+                // keeps them as "inf" and "NaN").
+                Value::Null => println!("{k}: null"),
                 other => println!("{k}: {other}"),
             }
         }
     }
 }
 
-/// A float for JSON output: inf becomes the string "inf" rather than null.
+/// A float for output: inf and NaN become the strings "inf", "-inf" and "NaN" rather than
+/// JSON's null.
 fn num(v: f64) -> Value {
     if v.is_finite() {
         json!(v)

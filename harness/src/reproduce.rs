@@ -24,7 +24,7 @@ fn write_status(out: &Path, id: &str, line: &str) -> Result<()> {
     if let Some(d) = p.parent() {
         std::fs::create_dir_all(d).map_err(|e| Error::io(d, e))?;
     }
-    std::fs::write(&p, line).map_err(|e| Error::io(&p, e))
+    algorithms::io::atomic_write(&p, |w| std::io::Write::write_all(w, line.as_bytes()))
 }
 
 /// The GPU adapter the GPU renderers use, when one of them is registered and an adapter exists.
@@ -309,7 +309,7 @@ fn write_readme(
         render::names().join(", ")
     );
     for t in papers::TABLES {
-        let status = std::fs::read_to_string(status_path(out, t.id()))
+        let status = algorithms::io::read_input_string(&status_path(out, t.id()), 1 << 16)
             .map(|s| s.trim().to_string())
             .unwrap_or_else(|_| "not run yet".into());
         // A `|` in a cell (even inside a code span) would split it: escape it.
@@ -324,7 +324,7 @@ fn write_readme(
         );
     }
     let rp = out.join("README.md");
-    std::fs::write(&rp, readme).map_err(|e| Error::io(&rp, e))
+    algorithms::io::atomic_write(&rp, |w| std::io::Write::write_all(w, readme.as_bytes()))
 }
 
 #[cfg(test)]

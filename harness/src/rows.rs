@@ -149,11 +149,7 @@ impl CsvSink {
 
     pub fn write<T: Serialize>(&mut self, row: &T) -> Result<()> {
         let err = |e: &dyn std::fmt::Display| Error::Io(format!("{}: {e}", self.path.display()));
-        let mut w = csv::WriterBuilder::new()
-            .has_headers(self.header)
-            .from_writer(Vec::new());
-        w.serialize(row).map_err(|e| err(&e))?;
-        let bytes = w.into_inner().map_err(|e| err(&e.error().to_string()))?;
+        let bytes = safe_record(row, self.header).map_err(|e| err(&e))?;
         use std::io::Write;
         if let Err(e) = self.f.write_all(&bytes).and_then(|_| self.f.flush()) {
             // Rows whole or not at all: cut back what part of this one reached the file.
@@ -166,16 +162,85 @@ impl CsvSink {
     }
 }
 
-fn io_err(p: &Path, e: impl std::fmt::Display) -> Error {
-    Error::Io(format!("{}: {e}", p.display()))
+/// Whether a text cell would start a formula in a spreadsheet: it begins with `=`, `+`, `-`,
+/// `@`, a tab or a carriage return (OWASP's CSV-injection list), after any leading `'`s (so
+/// that the escape below can be undone exactly).
+fn formula_like(s: &str) -> bool {
+    s.trim_start_matches('\'').starts_with(['=', '+', '-', '@', '\t', '\r'])
+}
+
+/// Whether a cell is a number (`-1.5`, `NaN`, `-inf`, `12%`): numbers are written as they are.
+fn numeric(s: &str) -> bool {
+    s.strip_suffix('%').unwrap_or(s).parse::<f64>().is_ok()
+}
+
+/// A cell as tetbench writes it into a CSV file: a text cell that a spreadsheet would run as a
+/// formula gets a leading `'`, as the CSV-injection guidance says; numbers never do.
+/// [`cell_from_csv`] undoes it.
+pub fn cell_to_csv(s: &str) -> std::borrow::Cow<'_, str> {
+    if !numeric(s) && formula_like(s) {
+        format!("'{s}").into()
+    } else {
+        s.into()
+    }
+}
+
+/// A cell as it was before [`cell_to_csv`].
+pub fn cell_from_csv(s: &str) -> &str {
+    match s.strip_prefix('\'') {
+        Some(rest) if !numeric(rest) && formula_like(rest) => rest,
+        _ => s,
+    }
+}
+
+/// One serialised row (with the header line first when `header`), every text cell passed
+/// through [`cell_to_csv`].
+fn safe_record<T: Serialize>(row: &T, header: bool) -> std::result::Result<Vec<u8>, String> {
+    let mut w = csv::WriterBuilder::new()
+        .has_headers(header)
+        .from_writer(Vec::new());
+    w.serialize(row).map_err(|e| e.to_string())?;
+    let raw = w.into_inner().map_err(|e| e.error().to_string())?;
+    let mut r = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .from_reader(raw.as_slice());
+    let mut out = csv::Writer::from_writer(Vec::new());
+    for (i, rec) in r.records().enumerate() {
+        let rec = rec.map_err(|e| e.to_string())?;
+        if header && i == 0 {
+            out.write_record(&rec)
+        } else {
+            out.write_record(rec.iter().map(|c| cell_to_csv(c).into_owned()))
+        }
+        .map_err(|e| e.to_string())?;
+    }
+    out.into_inner().map_err(|e| e.error().to_string())
+}
+
+/// The longest line a tetbench CSV file holds (a row with its longest note is a few KiB): a
+/// longer one is a file that is not ours, or one that never ends a record.
+pub const MAX_CSV_LINE: usize = 1 << 20;
+
+/// Reads a CSV file of rows written by [`CsvSink`] (regular files only, lines bounded, cells
+/// as [`cell_from_csv`] gives them back).
+fn read_csv<T: serde::de::DeserializeOwned>(path: &Path) -> Result<Vec<T>> {
+    let f = algorithms::io::open_input(path)?;
+    let bounded = algorithms::io::files::BoundedLines::new(f, MAX_CSV_LINE);
+    let bad = |e: csv::Error| Error::Input(format!("{}: {e}", path.display()));
+    let mut r = csv::Reader::from_reader(bounded);
+    let headers = r.headers().map_err(bad)?.clone();
+    let mut out = Vec::new();
+    for rec in r.records() {
+        let rec = rec.map_err(bad)?;
+        let rec: csv::StringRecord = rec.iter().map(cell_from_csv).collect();
+        out.push(rec.deserialize(Some(&headers)).map_err(bad)?);
+    }
+    Ok(out)
 }
 
 /// Reads a `results.csv` back.
 pub fn read_rows(path: &Path) -> Result<Vec<Row>> {
-    let mut r = csv::Reader::from_path(path).map_err(|e| io_err(path, e))?;
-    r.deserialize()
-        .map(|x| x.map_err(|e| Error::Input(format!("{}: {e}", path.display()))))
-        .collect()
+    read_csv(path)
 }
 
 /// Reads a `pairs.csv` back (empty when the file does not exist).
@@ -183,10 +248,7 @@ pub fn read_pairs(path: &Path) -> Result<Vec<PairRow>> {
     if !path.exists() {
         return Ok(Vec::new());
     }
-    let mut r = csv::Reader::from_path(path).map_err(|e| io_err(path, e))?;
-    r.deserialize()
-        .map(|x| x.map_err(|e| Error::Input(format!("{}: {e}", path.display()))))
-        .collect()
+    read_csv(path)
 }
 
 #[cfg(test)]
@@ -213,6 +275,54 @@ mod tests {
         assert_eq!(text.lines().count(), 3);
         assert!(text.ends_with('\n'));
         assert_eq!(read_rows(&d).unwrap().len(), 2);
+        let _ = std::fs::remove_file(&d);
+    }
+
+    /// Text cells that a spreadsheet would run as formulas are written with a leading `'`;
+    /// numbers (negative ones too) are not; reading gives every cell back as it was.
+    #[test]
+    fn formula_like_text_is_escaped_and_read_back_unchanged() {
+        let d = std::env::temp_dir().join(format!("tetbench-inject-{}.csv", std::process::id()));
+        let texts = [
+            "=HYPERLINK(\"http://x\")",
+            "+1+1",
+            "-2+3",
+            "@SUM(A1)",
+            "\tx",
+            "'=x",
+            "''@y",
+            "'plain",
+            "plain",
+        ];
+        let mut w = CsvSink::create(&d).unwrap();
+        for t in texts {
+            let row = Row {
+                dataset: t.into(),
+                note: t.into(),
+                azimuth: -30.5,
+                total_ms: f64::NAN,
+                psnr: Some(f64::NEG_INFINITY),
+                ..Default::default()
+            };
+            w.write(&row).unwrap();
+        }
+        let raw = std::fs::read_to_string(&d).unwrap();
+        let mut r = csv::Reader::from_path(&d).unwrap();
+        let h = r.headers().unwrap().clone();
+        let col = |n: &str| h.iter().position(|x| x == n).unwrap();
+        for rec in r.records() {
+            let rec = rec.unwrap();
+            for c in ["dataset", "note"] {
+                let v = &rec[col(c)];
+                assert!(!formula_like(v) || v.starts_with('\''), "{v} in {raw}");
+            }
+            assert_eq!(&rec[col("azimuth")], "-30.5");
+            assert_eq!(&rec[col("psnr")], "-inf");
+        }
+        let back = read_rows(&d).unwrap();
+        let got: Vec<&str> = back.iter().map(|r| r.dataset.as_str()).collect();
+        assert_eq!(got, texts);
+        assert!(back.iter().all(|r| r.note == r.dataset && r.azimuth == -30.5));
         let _ = std::fs::remove_file(&d);
     }
 }

@@ -35,7 +35,8 @@ pub fn write_table(t: &Table, dir: &Path, machine: &str, date: &str) -> Result<(
     let werr = |e: csv::Error| Error::Io(format!("{}: {e}", csvp.display()));
     w.write_record(&t.columns).map_err(werr)?;
     for r in &t.rows {
-        w.write_record(r).map_err(werr)?;
+        w.write_record(r.iter().map(|c| crate::rows::cell_to_csv(c).into_owned()))
+            .map_err(werr)?;
     }
     w.flush().map_err(|e| Error::io(&csvp, e))?;
 

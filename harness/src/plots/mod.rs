@@ -19,12 +19,11 @@ type PResult = std::result::Result<(), Box<dyn std::error::Error>>;
 
 const SIZE: (u32, u32) = (960, 640);
 
-/// `DIR/.STEM.tmpPID.EXT`: a hidden sibling with the same extension (the backends pick the
-/// format from it); `sweep::clean_stale_tmp` removes those a killed run left.
+/// `DIR/.STEM.tmp<pid>@<host>.EXT`: a hidden sibling with the same extension (the backends
+/// pick the format from it); `sweep::clean_stale_tmp` removes those a killed run left.
 fn tmp_sibling(p: &Path) -> PathBuf {
-    let stem = p.file_stem().unwrap_or_default().to_string_lossy();
     let ext = p.extension().unwrap_or_default().to_string_lossy();
-    p.with_file_name(format!(".{stem}.tmp{}.{ext}", std::process::id()))
+    algorithms::io::files::temp_name(p, Some(&ext))
 }
 
 fn plot_err(p: &Path, e: Box<dyn std::error::Error>) -> Error {

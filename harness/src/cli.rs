@@ -114,8 +114,10 @@ DIR/.cache by content hash. Keys: docs/experiments.md; figures and report: docs/
         after_help = "Example: tetbench merge --out out/all out/shard0 out/shard1 out/shard2
 
 The shards must come from the same experiment file, the same N and the same tetbench version,
-and together hold every row exactly once; anything else is refused, naming the shard. The
-merge also draws the image figure (results-images.png/.svg) and writes DIR/index.html."
+and together hold every row of the sweep exactly once; anything else is refused, naming the
+shard. The output directory must not be a shard, and results already in it are replaced only
+with --force. The merge also draws the image figure (results-images.png/.svg) and writes
+DIR/index.html."
     )]
     Merge {
         /// Output directory for the merged results.csv and plots.
@@ -127,6 +129,9 @@ merge also draws the image figure (results-images.png/.svg) and writes DIR/index
         /// Do not draw plots.
         #[arg(long)]
         no_plots: bool,
+        /// Replace the results already in the output directory.
+        #[arg(long)]
+        force: bool,
     },
     /// Regenerate the papers' tables (PTINT Table 1, 2, Fig. 8; HAPT Tables 1-4; JBU Fig. 3-5;
     /// BCC §3 and §4) and their plots.

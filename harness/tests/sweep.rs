@@ -303,8 +303,8 @@ fn a_second_run_into_one_out_is_refused_by_the_lock() {
     let exp = write_exp(&d, TINY);
     let out = d.join("out");
     std::fs::create_dir_all(&out).unwrap();
-    // A live process (this test) holds the lock.
-    std::fs::write(out.join(".lock"), format!("{}\n", std::process::id())).unwrap();
+    // A live run (this test, holding the lock) keeps others out.
+    let lock = tetbench::sweep::Lock::take(&out).unwrap();
     let o = tetbench(&["bench", s(&exp), "--out", s(&out), "--no-plots"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(
@@ -312,14 +312,19 @@ fn a_second_run_into_one_out_is_refused_by_the_lock() {
         "{}",
         err_line(&o)
     );
-    // A stale lock (its process is gone) and stale temporary files are cleaned up.
+    drop(lock);
+    // A lock file left by a run that is gone, and its temporary files, are cleaned up.
     std::fs::write(out.join(".lock"), "999999999\n").unwrap();
     std::fs::create_dir_all(out.join(".cache")).unwrap();
-    std::fs::write(out.join(".cache/.ref-x.exr.tmp999999999"), b"half").unwrap();
+    let tmp = out.join(format!(
+        ".cache/.ref-x.exr.tmp999999999@{}",
+        algorithms::io::files::host_name()
+    ));
+    std::fs::write(&tmp, b"half").unwrap();
     let o = tetbench(&["bench", s(&exp), "--out", s(&out), "--no-plots", "--force"]);
     assert!(o.status.success(), "{}", err_line(&o));
     assert!(!out.join(".lock").exists());
-    assert!(!out.join(".cache/.ref-x.exr.tmp999999999").exists());
+    assert!(!tmp.exists());
     let _ = std::fs::remove_dir_all(&d);
 }
 

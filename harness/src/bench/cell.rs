@@ -357,7 +357,7 @@ fn finish_row(
     }
     let yardstick = match reference {
         None => None,
-        Some(Ok(rp)) => match Image::read(rp) {
+        Some(Ok(rp)) => match super::yardsticks::read_entry(rp) {
             Ok(img) => Some(img),
             Err(e) => {
                 row.note = format!("reference: {e}");

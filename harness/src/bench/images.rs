@@ -3,8 +3,8 @@
 
 use super::*;
 
-/// With `save_images`: the image as EXR and PNG under `DIR/images/<dataset>/`, and the cached
-/// reference beside it as PNG.
+/// With `save_images`: the image as EXR and PNG under `DIR/images/<dataset>/`, and its cached
+/// yardstick beside it as PNG.
 pub(super) fn save_images(
     exp: &Experiment,
     opts: &RunOptions,
@@ -22,10 +22,15 @@ pub(super) fn save_images(
     let stem = image_stem(&var.label, cell);
     img.write(&dir.join(format!("{stem}.exr")))?;
     img.write(&dir.join(format!("{stem}.png")))?;
+    // The yardstick beside it, named after it (`reference-cached-…` for the exact reference);
+    // one that no longer matches its checksum is left out (the row's note says why).
     if let Some(p) = reference {
-        let rp = dir.join(format!("{}.png", image_stem("reference-cached", cell)));
+        let name = format!("{}-cached", var.yardstick.label());
+        let rp = dir.join(format!("{}.png", image_stem(&name, cell)));
         if !rp.exists() {
-            Image::read(p)?.write(&rp)?;
+            if let Ok(img) = super::yardsticks::read_entry(p) {
+                img.write(&rp)?;
+            }
         }
     }
     Ok(())
@@ -104,13 +109,17 @@ pub fn mesh_hash(mesh: &Mesh) -> blake3::Hash {
 /// A short content hash of an image's f32 pixels (the `image_hash` column): equal hashes mean
 /// bit-identical images.
 pub fn image_hash(img: &Image) -> String {
-    let mut bytes = Vec::with_capacity(8 + 16 * img.pixels.len());
-    bytes.extend(img.width.to_le_bytes());
-    bytes.extend(img.height.to_le_bytes());
-    for c in img.pixels.iter().flatten() {
-        bytes.extend(c.to_le_bytes());
+    // Fed in blocks: the same bytes as one buffer of them, without a copy of the image.
+    let mut h = blake3::Hasher::new();
+    h.update(&img.width.to_le_bytes());
+    h.update(&img.height.to_le_bytes());
+    let mut block = Vec::with_capacity(16 * 4096);
+    for chunk in img.pixels.chunks(4096) {
+        block.clear();
+        block.extend(chunk.iter().flatten().flat_map(|c| c.to_le_bytes()));
+        h.update(&block);
     }
-    blake3::hash(&bytes).to_hex()[..16].to_string()
+    h.finalize().to_hex()[..16].to_string()
 }
 
 pub(super) fn image_stem(label: &str, cell: &Cell) -> String {
@@ -122,17 +131,4 @@ pub(super) fn image_stem(label: &str, cell: &Cell) -> String {
         cell.size.1,
         sanitize(&cell.view.id)
     )
-}
-
-/// A name safe as one path component.
-pub fn sanitize(s: &str) -> String {
-    s.chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '-' || c == '.' || c == '_' {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect()
 }

@@ -32,7 +32,8 @@ pub use cell::{
     TEST_PANIC_ENV,
 };
 use images::{compare_pairs, image_stem, save_images};
-pub use images::{image_hash, mesh_hash, sanitize};
+pub use crate::experiment::sanitize;
+pub use images::{image_hash, mesh_hash};
 use yardsticks::{ref_path, references};
 
 /// Where the peers' logs (their stderr) go in the output directory, one file per peer.
@@ -267,6 +268,7 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<Outcome> {
         shard: opts.shard,
         version: env!("CARGO_PKG_VERSION").to_string(),
         rows: None,
+        keys: None,
     };
     info.write(&opts.out)?;
 
@@ -286,7 +288,8 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<Outcome> {
     let bar = progress::bar(opts.progress, total as u64, &opts.title);
 
     let mut out = Outcome::default();
-    let (mut mine, mut all) = (0usize, 0usize);
+    // Every row key of the sweep, and this shard's (for `shard.txt`, which `merge` checks).
+    let (mut mine, mut all) = (Vec::new(), Vec::new());
     let mut loads = vec![0.0; opts.shard.count];
     out.rows = done_rows;
     // Warm the thread pool so its allocations are not counted as a renderer's.
@@ -316,20 +319,25 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<Outcome> {
             .collect();
         let owner = sweep::assign(&costs, &mut loads);
         let is_mine = |k: usize, c: usize| owner[k * cells.len() + c] == opts.shard.index;
-        all += costs.len();
-        mine += owner.iter().filter(|&&s| s == opts.shard.index).count();
-        // A cell needs its reference when some unit of it is this shard's and not yet measured.
         let key_of = |v: usize, c: &Cell| {
-            format!(
-                "{}|{}|{}|{}x{}|{}",
-                name,
-                exp.variants[v].label,
+            sweep::cell_key(
+                &name,
+                &exp.variants[v].label,
                 c.projection.name(),
-                c.size.0,
-                c.size.1,
-                c.view.id
+                c.size,
+                &c.view.id,
             )
         };
+        for (k, &v) in kept.iter().enumerate() {
+            for (c, cell) in cells.iter().enumerate() {
+                let key = key_of(v, cell);
+                if is_mine(k, c) {
+                    mine.push(key.clone());
+                }
+                all.push(key);
+            }
+        }
+        // A cell needs its reference when some unit of it is this shard's and not yet measured.
         let todo =
             |k: usize, c: usize| is_mine(k, c) && !done.contains(&key_of(kept[k], &cells[c]));
         let mut ref_failed = BTreeMap::new();
@@ -504,7 +512,8 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<Outcome> {
         write_order(&opts.out.join("order.csv"), &out.order)?;
     }
     if !out.interrupted {
-        info.rows = Some((mine, all));
+        info.rows = Some((mine.len(), all.len()));
+        info.keys = Some((sweep::keys_hash(&mine), sweep::keys_hash(&all)));
         info.write(&opts.out)?;
     }
     Ok(out)
@@ -541,13 +550,11 @@ fn figure_cell(cells: &[Cell]) -> Option<keep::KeptCell> {
 
 /// Writes the frame order of an interleaved run.
 fn write_order(p: &Path, order: &[OrderRow]) -> Result<()> {
-    let mut w =
-        csv::Writer::from_path(p).map_err(|e| Error::Input(format!("{}: {e}", p.display())))?;
+    let mut w = CsvSink::create(p)?;
     for r in order {
-        w.serialize(r)
-            .map_err(|e| Error::Input(format!("{}: {e}", p.display())))?;
+        w.write(r)?;
     }
-    w.flush().map_err(|e| Error::io(p, e))
+    Ok(())
 }
 
 fn write_meta(exp: &Experiment, opts: &RunOptions) -> Result<()> {
@@ -569,7 +576,7 @@ fn write_meta(exp: &Experiment, opts: &RunOptions) -> Result<()> {
             .join(", "),
         crate::measure::shared_fixed_bytes(),
     );
-    std::fs::write(&p, text).map_err(|e| Error::io(&p, e))
+    algorithms::io::atomic_write(&p, |w| std::io::Write::write_all(w, text.as_bytes()))
 }
 
 #[cfg(test)]

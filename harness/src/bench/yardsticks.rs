@@ -6,7 +6,12 @@
 //!
 //! They are made before any variant of the dataset is measured, so that they never interleave
 //! with a measured renderer. One that cannot be made leaves its cells' rows without an error and
-//! with a note that says why; the run goes on.
+//! with a note that says why; the run goes on (and exits 3).
+//!
+//! Every image is stored with a checksum beside it (`ref-KEY.b3`: blake3 of the key and the
+//! pixels), and only an image that matches its checksum is used: an entry that was changed,
+//! damaged, replaced by another image (all black, all NaN) or swapped with another entry is
+//! rendered again. A made image with a NaN or infinite pixel is refused as a yardstick.
 
 use std::collections::BTreeMap;
 
@@ -218,10 +223,16 @@ pub(super) fn references(
                 cell.view.id
             ));
             let p = ref_path(opts, hash, var, lattice, cell);
-            if p.exists() {
-                out.reference_hits += 1;
-                bar.inc(1);
-                continue;
+            match read_entry(&p) {
+                Ok(_) => {
+                    out.reference_hits += 1;
+                    bar.inc(1);
+                    continue;
+                }
+                Err(e) if std::fs::symlink_metadata(&p).is_ok() => {
+                    progress::note(bar, &format!("{name}: {e}; rendering it again"));
+                }
+                Err(_) => {}
             }
             let m = maker.get_or_insert_with(|| {
                 Maker::new(var, mesh, lattice)
@@ -234,12 +245,19 @@ pub(super) fn references(
                     .map_err(|e| format!("{}: {e}", var.yardstick.label())),
                 Err(e) => Err(e.clone()),
             };
+            let made = made.and_then(|img| match img.non_finite_pixels() {
+                0 => Ok(img),
+                n => Err(format!(
+                    "{}: {n} pixels of its image are NaN or infinite; no error is measured against it",
+                    var.yardstick.label()
+                )),
+            });
             match made {
                 Ok(img) => {
                     if let Some(d) = p.parent() {
                         std::fs::create_dir_all(d).map_err(|e| Error::io(d, e))?;
                     }
-                    img.write(&p)?;
+                    write_entry(&p, &img)?;
                     out.reference_renders += 1;
                 }
                 Err(why) => {
@@ -251,6 +269,52 @@ pub(super) fn references(
         }
     }
     Ok(true)
+}
+
+/// The checksum file beside a yardstick image: `ref-KEY.b3`.
+fn sum_path(p: &Path) -> PathBuf {
+    p.with_extension("b3")
+}
+
+/// blake3 of an entry's key (its file name) and its image's size and pixels.
+fn checksum(p: &Path, img: &Image) -> String {
+    let mut h = blake3::Hasher::new();
+    h.update(b"tetbench-yardstick-v1");
+    h.update(p.file_name().unwrap_or_default().as_encoded_bytes());
+    h.update(&img.width.to_le_bytes());
+    h.update(&img.height.to_le_bytes());
+    for px in &img.pixels {
+        for c in px {
+            h.update(&c.to_le_bytes());
+        }
+    }
+    h.finalize().to_hex().to_string()
+}
+
+/// Stores a yardstick image and then its checksum (each atomically: an entry whose checksum is
+/// missing is not used).
+pub(super) fn write_entry(p: &Path, img: &Image) -> Result<()> {
+    img.write(p)?;
+    let sum = checksum(p, img);
+    algorithms::io::atomic_write(&sum_path(p), |w| {
+        std::io::Write::write_all(w, format!("{sum}\n").as_bytes())
+    })
+}
+
+/// A yardstick image that matches its checksum, or one line saying why it is not used.
+pub(super) fn read_entry(p: &Path) -> Result<Image> {
+    let img = Image::read(p)?;
+    let sp = sum_path(p);
+    let stored = algorithms::io::read_input_string(&sp, 1024).map_err(|e| {
+        Error::Input(format!("{}: no valid checksum beside it ({e})", p.display()))
+    })?;
+    if stored.trim() != checksum(p, &img) {
+        return Err(Error::Input(format!(
+            "{}: does not match its checksum (changed, damaged or swapped since it was made)",
+            p.display()
+        )));
+    }
+    Ok(img)
 }
 
 fn tf_bytes(h: &mut blake3::Hasher, tf: &TransferFunction) {

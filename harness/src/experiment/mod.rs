@@ -185,7 +185,8 @@ pub struct Experiment {
 
 /// Reads and validates an experiment file. Every error is one line naming the file and key.
 pub fn load(path: &Path) -> Result<Experiment> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text =
+        algorithms::io::read_input_string(path, algorithms::io::files::MAX_SETTINGS_BYTES)?;
     let cfg = parse(&text, &path.display().to_string())?;
     let base = path
         .parent()
@@ -260,6 +261,8 @@ pub fn validate(cfg: Config, base: &Path) -> Result<Experiment> {
     for (i, d) in cfg.datasets.iter().enumerate() {
         datasets::check_dataset(d, base).map_err(|e| key_err(format!("datasets[{i}]"), e))?;
     }
+    let names: Vec<String> = cfg.datasets.iter().map(DatasetSpec::display_name).collect();
+    distinct("dataset", &names, |i| format!("datasets[{i}]"))?;
     let tf = cfg
         .tf
         .clone()
@@ -278,6 +281,8 @@ pub fn validate(cfg: Config, base: &Path) -> Result<Experiment> {
         ));
     }
     let mut variants = Vec::new();
+    // The renderer entry each variant came from, to name both of two that clash.
+    let mut from: Vec<usize> = Vec::new();
     for (i, r) in cfg.renderers.iter().enumerate() {
         let v = expand_renderer(r, &default_tf, base).map_err(|e| match &e {
             Error::Input(m) if m.starts_with("unknown renderer") => {
@@ -288,11 +293,24 @@ pub fn validate(cfg: Config, base: &Path) -> Result<Experiment> {
         check_renderer_datasets(r, &cfg.datasets)
             .map_err(|e| key_err(format!("renderers[{i}]"), e))?;
         for x in v {
-            if !variants.iter().any(|y: &Variant| y.label == x.label) {
-                variants.push(x);
+            match variants.iter().position(|y: &Variant| y.label == x.label) {
+                // The same variant listed again: measured once.
+                Some(j) if variants[j].signature() == x.signature() => {}
+                Some(j) => {
+                    return Err(Error::Input(format!(
+                        "key `renderers[{i}]`: gives the variant '{}' as `renderers[{}]` does, but with another reference, max_tets, datasets or tf; give one of them other parameters so that their rows can be told apart",
+                        x.label, from[j]
+                    )))
+                }
+                None => {
+                    variants.push(x);
+                    from.push(i);
+                }
             }
         }
     }
+    let labels: Vec<String> = variants.iter().map(|v| v.label.clone()).collect();
+    distinct("variant", &labels, |i| format!("renderers[{}]", from[i]))?;
     let sizes = match &cfg.sizes {
         None => vec![(512, 512)],
         Some(list) => {
@@ -303,6 +321,8 @@ pub fn validate(cfg: Config, base: &Path) -> Result<Experiment> {
             for (i, s) in list.iter().enumerate() {
                 out.push(meshes::parse_size(s).map_err(|e| key_err(format!("sizes[{i}]"), e))?);
             }
+            let spelled: Vec<String> = out.iter().map(|(w, h)| format!("{w}x{h}")).collect();
+            distinct_values("sizes", list, &spelled)?;
             out
         }
     };
@@ -319,6 +339,8 @@ pub fn validate(cfg: Config, base: &Path) -> Result<Experiment> {
             for s in &p.0 {
                 v.push(Projection::parse(s).map_err(|e| key_err("projection", e))?);
             }
+            let names: Vec<String> = v.iter().map(|p| p.name().to_string()).collect();
+            distinct_values("projection", &p.0, &names)?;
             v
         }
     };
@@ -364,6 +386,77 @@ pub fn validate(cfg: Config, base: &Path) -> Result<Experiment> {
         pairs: cfg.pairs,
         base_dir: base.to_path_buf(),
     })
+}
+
+/// A name safe as one path component (images are saved under `DIR/images/<dataset>/` in
+/// files named after the variant): characters other than ASCII letters, digits, `-`, `.` and
+/// `_` become `_`, and a name of dots only (`.`, `..`) becomes underscores. Different names may
+/// meet in one (`x/y` and `x_y`): the experiment refuses datasets and variants that would.
+pub fn sanitize(s: &str) -> String {
+    let out: String = s
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '.' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    if out.chars().all(|c| c == '.') {
+        out.replace('.', "_")
+    } else {
+        out
+    }
+}
+
+/// Refuses an empty name among `names` (of `what`s, the i-th given by the key `key(i)`), two
+/// equal ones, and two that would be saved under one file name ([`sanitize`]): their rows or
+/// images could not be told apart. Names both keys.
+fn distinct(what: &str, names: &[String], key: impl Fn(usize) -> String) -> Result<()> {
+    let mut seen: std::collections::BTreeMap<String, usize> = Default::default();
+    let mut files: std::collections::BTreeMap<String, usize> = Default::default();
+    for (i, n) in names.iter().enumerate() {
+        if n.trim().is_empty() {
+            return Err(Error::Input(format!(
+                "key `{}`: the {what} has an empty name",
+                key(i)
+            )));
+        }
+        if let Some(&j) = seen.get(n) {
+            return Err(Error::Input(format!(
+                "keys `{}` and `{}` are both the {what} '{n}': their rows would share a key; give one a `label` of its own",
+                key(j),
+                key(i)
+            )));
+        }
+        seen.insert(n.clone(), i);
+        let f = sanitize(n);
+        if let Some(&j) = files.get(&f) {
+            return Err(Error::Input(format!(
+                "keys `{}` and `{}`: the {what}s '{}' and '{n}' would save their images under one name '{f}'; rename one",
+                key(j),
+                key(i),
+                names[j]
+            )));
+        }
+        files.insert(f, i);
+    }
+    Ok(())
+}
+
+/// Refuses two entries of the list `key` (`given`, as written) that mean the same
+/// (`meaning`, parallel: `16x16` and `16X16`), naming both.
+fn distinct_values(key: &str, given: &[String], meaning: &[String]) -> Result<()> {
+    for (i, m) in meaning.iter().enumerate() {
+        if let Some(j) = meaning[..i].iter().position(|x| x == m) {
+            return Err(Error::Input(format!(
+                "key `{key}`: '{}' ({key}[{j}]) and '{}' ({key}[{i}]) are the same {m}; list it once",
+                given[j], given[i]
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// A renderer's `datasets` name datasets of the experiment, and an `analytic` yardstick has

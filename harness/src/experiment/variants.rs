@@ -119,6 +119,15 @@ pub struct Variant {
 }
 
 impl Variant {
+    /// Everything but its label that makes its rows what they are: two entries that give one
+    /// label are one variant only when this agrees too.
+    pub fn signature(&self) -> String {
+        format!(
+            "{:?}|{:?}|{:?}|{:?}|{:?}|{:?}",
+            self.yardstick, self.max_tets, self.datasets, self.tf, self.options, self.unavailable
+        )
+    }
+
     /// Whether it runs on the dataset named `dataset` with `tets` tets.
     pub fn runs_on(&self, dataset: &str, tets: usize) -> bool {
         self.max_tets.is_none_or(|m| tets <= m)

@@ -414,9 +414,7 @@ pub(crate) fn run_experiment(
     // it resumes one (an experiment with image pairs cannot resume: it is measured again).
     opts.resume = ctx.resume && exp.pairs.is_empty();
     opts.force = !opts.resume;
-    opts.identity = blake3::hash(format!("{cfg:?}").as_bytes())
-        .to_hex()
-        .to_string();
+    opts.identity = identity(&cfg);
     let o = match &ctx.sweep {
         super::Sweep::Whole => bench::run(&exp, &opts)?,
         super::Sweep::Shard(s) => {
@@ -435,8 +433,9 @@ pub(crate) fn run_experiment(
         super::Sweep::Merge(dirs) => {
             let parts: Vec<std::path::PathBuf> =
                 dirs.iter().map(|d| d.join("raw").join(t.id())).collect();
+            same_experiment(ctx, experiment, &opts.identity, &parts)?;
             Outcome {
-                rows: crate::merge::merge(&raw, &parts)?,
+                rows: crate::merge::merge(&raw, &parts, true)?,
                 ..Default::default()
             }
         }
@@ -458,6 +457,54 @@ pub(crate) fn run_experiment(
         .push(format!("Raw rows: `raw/{}/results.csv`.", t.id()));
     let plots = plots(&o, &ctx.out)?;
     Ok(Done::Table { table, plots })
+}
+
+/// A table's experiment as `shard.txt` records it: the hash of its whole configuration.
+fn identity(cfg: &Config) -> String {
+    blake3::hash(format!("{cfg:?}").as_bytes())
+        .to_hex()
+        .to_string()
+}
+
+/// `reproduce --merge`: every shard measured this table's experiment as this run builds it.
+/// A shard of the other `--quick` setting is named as such (its rows would be laid out under
+/// this run's sizes and meshes).
+fn same_experiment(
+    ctx: &Ctx,
+    experiment: fn(&Ctx) -> std::result::Result<Config, String>,
+    mine: &str,
+    parts: &[std::path::PathBuf],
+) -> Result<()> {
+    let flipped = Ctx {
+        quick: !ctx.quick,
+        out: ctx.out.clone(),
+        sweep: super::Sweep::Whole,
+        resume: false,
+        failed: Default::default(),
+    };
+    let other = experiment(&flipped).ok().map(|c| identity(&c));
+    for p in parts {
+        let Some(info) = crate::sweep::ShardInfo::read(p)? else {
+            continue; // merge names it
+        };
+        if info.experiment == mine {
+            continue;
+        }
+        let why = if other.as_deref() == Some(info.experiment.as_str()) {
+            if ctx.quick {
+                "was measured without --quick; merge it without --quick".to_string()
+            } else {
+                "was measured with --quick; merge it with --quick".to_string()
+            }
+        } else {
+            "measured another version of this table's experiment (another tetbench, or other datasets present)".to_string()
+        };
+        return Err(algorithms::Error::Input(format!(
+            "shard {}: {why}",
+            p.display()
+        )));
+    }
+    Ok(())
 }
 
 #[cfg(test)]

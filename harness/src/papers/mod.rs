@@ -81,9 +81,12 @@ pub enum Sweep {
 }
 
 impl Ctx {
-    /// Adds the failed rows among `rows` to [`Ctx::failed`].
+    /// Adds the failed rows among `rows`, and those without their error, to [`Ctx::failed`].
     pub fn count_failed(&self, rows: &[crate::rows::Row]) {
-        let n = rows.iter().filter(|r| crate::sweep::failed(r)).count();
+        let n = rows
+            .iter()
+            .filter(|r| crate::sweep::failed(r) || crate::sweep::error_missing(r))
+            .count();
         self.failed.set(self.failed.get() + n);
     }
 }

@@ -38,10 +38,10 @@ impl Image {
     }
 
     /// A transparent black image, or an error naming its size when memory cannot hold it
-    /// (see [`crate::alloc::try_vec`]).
+    /// (see [`crate::util::alloc::try_vec`]).
     pub fn try_new(width: u32, height: u32) -> Result<Image> {
         let n = width as usize * height as usize;
-        let pixels = crate::alloc::try_vec(n, [0.0; 4])
+        let pixels = crate::util::alloc::try_vec(n, [0.0; 4])
             .map_err(|e| Error::Input(format!("image {width}x{height}: {e}")))?;
         Ok(Image {
             width,
@@ -114,7 +114,7 @@ impl Image {
     }
 
     fn write_png(&self, path: &Path) -> Result<()> {
-        let mut data = crate::alloc::try_vec_with_capacity(4 * self.pixels.len())
+        let mut data = crate::util::alloc::try_vec_with_capacity(4 * self.pixels.len())
             .map_err(|e| Error::Input(format!("{}: {e}", path.display())))?;
         data.extend(self.pixels.iter().flatten().map(|&v| quantize(v)));
         atomic_write(path, |out| {
@@ -241,15 +241,21 @@ fn read_png(path: &Path) -> Result<Image> {
     // PNG's samples are deflated: at best about 1032:1.
     let info = reader.info();
     let (w, h) = (info.width as u64, info.height as u64);
-    check_announced(path, (w, h), (size as u64 / (w * h).max(1)).max(1), len, 1100)?;
-    let mut buf = crate::alloc::try_vec(size, 0u8)
+    check_announced(
+        path,
+        (w, h),
+        (size as u64 / (w * h).max(1)).max(1),
+        len,
+        1100,
+    )?;
+    let mut buf = crate::util::alloc::try_vec(size, 0u8)
         .map_err(|e| Error::Input(format!("{}: {e}", path.display())))?;
     let info = reader
         .next_frame(&mut buf)
         .map_err(|e| bad(e.to_string()))?;
     let (w, h) = (info.width, info.height);
     let n = w as usize * h as usize;
-    let mut px = crate::alloc::try_vec_with_capacity::<[f32; 4]>(n)
+    let mut px = crate::util::alloc::try_vec_with_capacity::<[f32; 4]>(n)
         .map_err(|e| Error::Input(format!("{}: {e}", path.display())))?;
     let pixel: fn(&[u8]) -> [f32; 4] = match info.color_type {
         png::ColorType::Rgba => |c| [to_f(c[0]), to_f(c[1]), to_f(c[2]), to_f(c[3])],

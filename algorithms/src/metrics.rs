@@ -117,7 +117,10 @@ mod tests {
         let b = Image::new(2, 2);
         for (x, y) in [(&a, &b), (&b, &a), (&a, &a)] {
             let e = compare(x, y).unwrap();
-            assert!(e.rmse.is_nan() && e.psnr.is_nan() && e.max_abs.is_nan(), "{e:?}");
+            assert!(
+                e.rmse.is_nan() && e.psnr.is_nan() && e.max_abs.is_nan(),
+                "{e:?}"
+            );
         }
         let mut c = Image::new(2, 2);
         c.set(1, 1, [0.5, 0.0, 0.0, 1.0]);

@@ -98,7 +98,9 @@ pub fn merge(out: &Path, shards: &[PathBuf], force: bool) -> Result<Vec<Row>> {
         )));
     }
     let (Some((_, total)), Some((_, matrix))) = (first.rows, first.keys.clone()) else {
-        return Err(Error::Internal("merge: a finished shard without its rows".into()));
+        return Err(Error::Internal(
+            "merge: a finished shard without its rows".into(),
+        ));
     };
 
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
@@ -137,7 +139,10 @@ pub fn merge(out: &Path, shards: &[PathBuf], force: bool) -> Result<Vec<Row>> {
             }
             own.push(k);
         }
-        if i.keys.as_ref().is_some_and(|(mine, _)| *mine != keys_hash(&own)) {
+        if i.keys
+            .as_ref()
+            .is_some_and(|(mine, _)| *mine != keys_hash(&own))
+        {
             return Err(Error::Input(format!(
                 "shard {}: its rows are not the ones its shard file lists (a row's dataset, variant, projection, size or view was changed, or rows of another run were mixed in)",
                 d.display()

@@ -166,7 +166,8 @@ impl CsvSink {
 /// `@`, a tab or a carriage return (OWASP's CSV-injection list), after any leading `'`s (so
 /// that the escape below can be undone exactly).
 fn formula_like(s: &str) -> bool {
-    s.trim_start_matches('\'').starts_with(['=', '+', '-', '@', '\t', '\r'])
+    s.trim_start_matches('\'')
+        .starts_with(['=', '+', '-', '@', '\t', '\r'])
 }
 
 /// Whether a cell is a number (`-1.5`, `NaN`, `-inf`, `12%`): numbers are written as they are.
@@ -322,7 +323,9 @@ mod tests {
         let back = read_rows(&d).unwrap();
         let got: Vec<&str> = back.iter().map(|r| r.dataset.as_str()).collect();
         assert_eq!(got, texts);
-        assert!(back.iter().all(|r| r.note == r.dataset && r.azimuth == -30.5));
+        assert!(back
+            .iter()
+            .all(|r| r.note == r.dataset && r.azimuth == -30.5));
         let _ = std::fs::remove_file(&d);
     }
 }

@@ -79,7 +79,12 @@ fn one_line_error(o: &Output, want: &[&str]) {
 fn mkfifo(p: &Path) {
     let c = CString::new(s(p)).unwrap();
     // SAFETY: mkfifo with a valid NUL-terminated path.
-    assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0, "{}", p.display());
+    assert_eq!(
+        unsafe { libc::mkfifo(c.as_ptr(), 0o600) },
+        0,
+        "{}",
+        p.display()
+    );
 }
 
 const TWO_TETS: &str = "5 2\n0 0 0 0.5\n1 0 0 1\n0 1 0 2\n0 0 1 3\n1 1 1 4\n0 1 2 3\n1 2 3 4\n";
@@ -143,7 +148,13 @@ fn inputs_that_are_not_regular_files_are_refused_by_name() {
     let tfp = fifo("tf-pipe.json");
     one_line_error(
         &tetbench(&[
-            "render", s(&good), "--renderer", "raycast", "--tf", s(&tfp), "--out",
+            "render",
+            s(&good),
+            "--renderer",
+            "raycast",
+            "--tf",
+            s(&tfp),
+            "--out",
             s(&d.join("x.png")),
         ]),
         &[s(&tfp), "named pipe"],
@@ -164,7 +175,10 @@ fn inputs_that_are_not_regular_files_are_refused_by_name() {
     // `/dev/zero` as a mesh (through a link, as a probe would give it), and a directory.
     let zero = d.join("zero.off");
     std::os::unix::fs::symlink("/dev/zero", &zero).unwrap();
-    one_line_error(&tetbench(&["info", s(&zero)]), &[s(&zero), "character device"]);
+    one_line_error(
+        &tetbench(&["info", s(&zero)]),
+        &[s(&zero), "character device"],
+    );
     let dir = d.join("dir.vtu");
     std::fs::create_dir_all(&dir).unwrap();
     one_line_error(&tetbench(&["info", s(&dir)]), &[s(&dir), "directory"]);
@@ -228,13 +242,21 @@ fn a_cache_entry_that_is_a_pipe_or_a_huge_header_is_rendered_again() {
     mkfifo(&entry);
     let o = tetbench(&["bench", s(&exp), "--out", s(&out), "--no-plots", "--force"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stdout_has(&o, "reference_images: 1 rendered"), "{}", stderr(&o));
+    assert!(
+        stdout_has(&o, "reference_images: 1 rendered"),
+        "{}",
+        stderr(&o)
+    );
     assert!(std::fs::metadata(&entry).unwrap().is_file());
     // The same entry, its header now announcing 100000 × 100000 pixels.
     std::fs::write(&entry, huge_exr_header(&good)).unwrap();
     let o = tetbench(&["bench", s(&exp), "--out", s(&out), "--no-plots", "--force"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stdout_has(&o, "reference_images: 1 rendered"), "{}", stderr(&o));
+    assert!(
+        stdout_has(&o, "reference_images: 1 rendered"),
+        "{}",
+        stderr(&o)
+    );
     let _ = std::fs::remove_dir_all(&d);
 }
 
@@ -265,7 +287,11 @@ fn crc32(bytes: &[u8]) -> u32 {
     for &b in bytes {
         c ^= b as u32;
         for _ in 0..8 {
-            c = if c & 1 != 0 { 0xEDB8_8320 ^ (c >> 1) } else { c >> 1 };
+            c = if c & 1 != 0 {
+                0xEDB8_8320 ^ (c >> 1)
+            } else {
+                c >> 1
+            };
         }
     }
     !c
@@ -286,7 +312,11 @@ fn tiny_png(w: u32, h: u32) -> Vec<u8> {
     ihdr.extend(h.to_be_bytes());
     ihdr.extend([8, 6, 0, 0, 0]);
     chunk(&mut out, b"IHDR", &ihdr);
-    chunk(&mut out, b"IDAT", &[0x78, 0x9c, 0x03, 0x00, 0x00, 0x00, 0x00, 0x01]);
+    chunk(
+        &mut out,
+        b"IDAT",
+        &[0x78, 0x9c, 0x03, 0x00, 0x00, 0x00, 0x00, 0x01],
+    );
     chunk(&mut out, b"IEND", &[]);
     out
 }
@@ -300,7 +330,14 @@ fn compare_refuses_headers_that_announce_huge_images() {
     let mesh = d.join("two.off");
     std::fs::write(&mesh, TWO_TETS).unwrap();
     let o = tetbench(&[
-        "render", s(&mesh), "--renderer", "raycast", "--size", "8x8", "--out", s(&good),
+        "render",
+        s(&mesh),
+        "--renderer",
+        "raycast",
+        "--size",
+        "8x8",
+        "--out",
+        s(&good),
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let png = d.join("huge.png");

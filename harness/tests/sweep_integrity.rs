@@ -158,7 +158,10 @@ fn duplicate_row_keys_are_refused_up_front() {
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .filter(|n| n.ends_with(".png") || n.ends_with(".exr"))
         .collect();
-    assert!(top.is_empty(), "images written into the output directory: {top:?}");
+    assert!(
+        top.is_empty(),
+        "images written into the output directory: {top:?}"
+    );
     assert!(out.join("images/__").is_dir());
     let _ = std::fs::remove_dir_all(&d);
 }
@@ -183,7 +186,10 @@ fn the_lock_is_held_by_runs_not_by_pids() {
     let before = std::fs::read(out.join("results.csv")).unwrap();
     let lock = tetbench::sweep::Lock::take(&out).unwrap();
     let o = tetbench(&["bench", s(&exp), "--out", s(&out), "--force"]);
-    one_line_error(&o, &["another tetbench run", &std::process::id().to_string()]);
+    one_line_error(
+        &o,
+        &["another tetbench run", &std::process::id().to_string()],
+    );
     let o = tetbench(&["merge", "--out", s(&out), "--force", s(&shard)]);
     one_line_error(&o, &["another tetbench run"]);
     assert_eq!(std::fs::read(out.join("results.csv")).unwrap(), before);
@@ -200,7 +206,14 @@ fn merge_checks_keys_and_never_overwrites_silently() {
     let exp = write_exp(&d, "small.toml", SMALL);
     let shards: Vec<PathBuf> = (0..2).map(|i| d.join(format!("s{i}"))).collect();
     for (i, sd) in shards.iter().enumerate() {
-        let o = tetbench(&["bench", s(&exp), "--out", s(sd), "--shard", &format!("{i}/2")]);
+        let o = tetbench(&[
+            "bench",
+            s(&exp),
+            "--out",
+            s(sd),
+            "--shard",
+            &format!("{i}/2"),
+        ]);
         assert!(o.status.success(), "{}", err_lines(&o));
     }
     let merged = d.join("merged");
@@ -223,7 +236,10 @@ fn merge_checks_keys_and_never_overwrites_silently() {
     let shard0 = std::fs::read(shards[0].join("results.csv")).unwrap();
     let o = run(args(&shards[0], true));
     one_line_error(&o, &["--out", s(&shards[0]), "shard"]);
-    assert_eq!(std::fs::read(shards[0].join("results.csv")).unwrap(), shard0);
+    assert_eq!(
+        std::fs::read(shards[0].join("results.csv")).unwrap(),
+        shard0
+    );
 
     // One row's view edited to one the sweep does not have, the row count unchanged.
     let csv = shards[1].join("results.csv");
@@ -290,7 +306,10 @@ fn cache_entries_that_lie_are_rendered_again() {
         );
         assert_eq!(rmse_by_cell(&out.join("results.csv")), truth);
     };
-    let (a, b) = (std::fs::read(&entries[0]).unwrap(), std::fs::read(&entries[1]).unwrap());
+    let (a, b) = (
+        std::fs::read(&entries[0]).unwrap(),
+        std::fs::read(&entries[1]).unwrap(),
+    );
     std::fs::write(&entries[0], &b).unwrap();
     std::fs::write(&entries[1], &a).unwrap();
     rerun(2);
@@ -323,8 +342,14 @@ fn temporary_files_of_other_machines_are_left_alone() {
     std::fs::write(&unnamed, b"half").unwrap();
     let o = tetbench(&["bench", s(&exp), "--out", s(&d.join("out")), "--no-plots"]);
     assert!(o.status.success(), "{}", err_lines(&o));
-    assert!(foreign.exists(), "another machine's temporary file was removed");
-    assert!(unnamed.exists(), "a temporary file of an unknown machine was removed");
+    assert!(
+        foreign.exists(),
+        "another machine's temporary file was removed"
+    );
+    assert!(
+        unnamed.exists(),
+        "a temporary file of an unknown machine was removed"
+    );
     assert!(!mine_dead.exists());
     let _ = std::fs::remove_dir_all(&d);
 }
@@ -389,15 +414,34 @@ fn reproduce_merge_refuses_shards_of_the_other_quick_setting() {
     let d = tmpdir("quick");
     let shard = d.join("shard");
     let o = tetbench(&[
-        "reproduce", "--quick", "--only", "bcc_pt", "--shard", "0/1", "--out", s(&shard),
+        "reproduce",
+        "--quick",
+        "--only",
+        "bcc_pt",
+        "--shard",
+        "0/1",
+        "--out",
+        s(&shard),
     ]);
     assert!(matches!(o.status.code(), Some(0 | 3)), "{}", err_lines(&o));
     let o = tetbench(&[
-        "reproduce", "--only", "bcc_pt", "--merge", s(&shard), "--out", s(&d.join("m")),
+        "reproduce",
+        "--only",
+        "bcc_pt",
+        "--merge",
+        s(&shard),
+        "--out",
+        s(&d.join("m")),
     ]);
     one_line_error(&o, &[s(&shard), "with --quick"]);
     let o = tetbench(&[
-        "reproduce", "--quick", "--only", "bcc_pt", "--merge", s(&shard), "--out",
+        "reproduce",
+        "--quick",
+        "--only",
+        "bcc_pt",
+        "--merge",
+        s(&shard),
+        "--out",
         s(&d.join("m")),
     ]);
     assert!(matches!(o.status.code(), Some(0 | 3)), "{}", err_lines(&o));

@@ -300,7 +300,7 @@ impl Gpu {
         let range = slice
             .get_mapped_range()
             .map_err(|e| Error::Internal(format!("GPU mapped range: {e}")))?;
-        let mut data = crate::alloc::try_vec_with_capacity(range.len())?;
+        let mut data = crate::util::alloc::try_vec_with_capacity(range.len())?;
         data.extend_from_slice(&range);
         drop(range);
         buf.unmap();

@@ -96,7 +96,7 @@ pub fn read_input(path: &Path, max: u64) -> Result<Vec<u8>> {
             path.display()
         )));
     }
-    let mut buf = crate::alloc::try_vec_with_capacity::<u8>(len as usize + 1)
+    let mut buf = crate::util::alloc::try_vec_with_capacity::<u8>(len as usize + 1)
         .map_err(|e| Error::Input(format!("{}: {e}", path.display())))?;
     // The file may grow while it is read: never past `max`.
     (&mut f)
@@ -373,7 +373,13 @@ mod tests {
         }
         let t = temp_name(Path::new("/d/plot.png"), Some("png"));
         let name = t.file_name().unwrap().to_str().unwrap();
-        assert!(name.starts_with(".plot.tmp") && name.ends_with(".png"), "{name}");
-        assert!(is_stale_temp(name, now), "this process's own: stale at start");
+        assert!(
+            name.starts_with(".plot.tmp") && name.ends_with(".png"),
+            "{name}"
+        );
+        assert!(
+            is_stale_temp(name, now),
+            "this process's own: stale at start"
+        );
     }
 }

@@ -27,12 +27,12 @@ mod cell;
 mod images;
 pub mod keep;
 mod yardsticks;
+pub use crate::experiment::sanitize;
 pub use cell::{
     cells, isolated, measure_cell, measure_cell_interleaved, Cell, Prepared, RefImage,
     TEST_PANIC_ENV,
 };
 use images::{compare_pairs, image_stem, save_images};
-pub use crate::experiment::sanitize;
 pub use images::{image_hash, mesh_hash};
 use yardsticks::{ref_path, references};
 

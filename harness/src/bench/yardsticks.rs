@@ -306,7 +306,10 @@ pub(super) fn read_entry(p: &Path) -> Result<Image> {
     let img = Image::read(p)?;
     let sp = sum_path(p);
     let stored = algorithms::io::read_input_string(&sp, 1024).map_err(|e| {
-        Error::Input(format!("{}: no valid checksum beside it ({e})", p.display()))
+        Error::Input(format!(
+            "{}: no valid checksum beside it ({e})",
+            p.display()
+        ))
     })?;
     if stored.trim() != checksum(p, &img) {
         return Err(Error::Input(format!(

@@ -185,8 +185,7 @@ pub struct Experiment {
 
 /// Reads and validates an experiment file. Every error is one line naming the file and key.
 pub fn load(path: &Path) -> Result<Experiment> {
-    let text =
-        algorithms::io::read_input_string(path, algorithms::io::files::MAX_SETTINGS_BYTES)?;
+    let text = algorithms::io::read_input_string(path, algorithms::io::files::MAX_SETTINGS_BYTES)?;
     let cfg = parse(&text, &path.display().to_string())?;
     let base = path
         .parent()

@@ -311,7 +311,7 @@ impl Renderer for CpuPt {
         // must fit, or the frame fails with "out of memory" before any tile is drawn. The room
         // is a check only (given back at once), as each tile allocates its own buffer.
         let room = Image::try_new(w, h).and_then(|image| {
-            crate::alloc::try_vec_with_capacity::<[f32; 4]>(ntiles * (TILE * TILE) as usize)?;
+            crate::util::alloc::try_vec_with_capacity::<[f32; 4]>(ntiles * (TILE * TILE) as usize)?;
             Ok(image)
         });
         let mut image = match room {

@@ -285,7 +285,7 @@ impl RayCaster {
             .as_ref()
             .ok_or_else(|| Error::Internal("raycast: render before prepare".into()))?;
         let w = camera.width.max(1) as usize;
-        let mut px = crate::alloc::try_vec(w * camera.height as usize, [0.0f64; 4])
+        let mut px = crate::util::alloc::try_vec(w * camera.height as usize, [0.0f64; 4])
             .map_err(|e| Error::Input(format!("raycast: {}x{}: {e}", camera.width, camera.height)))?;
         let stats = match &st.shader {
             Shader::Partial(p) => st.tiles(mesh, camera, p, self.projected_walk, &mut px),

@@ -48,7 +48,7 @@ pub fn register(files: &[PathBuf], experiment: Option<&Path>, allow: bool) -> Re
 
 /// The `[[peer]]` tables of an experiment file (relative paths against its directory).
 pub fn experiment_peers(path: &Path) -> Result<Vec<PeerSpec>> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = algorithms::io::read_input_string(path, algorithms::io::files::MAX_SETTINGS_BYTES)?;
     let origin = path.display().to_string();
     let cfg = crate::experiment::parse(&text, &origin)?;
     let base = decl::base_dir(path);

@@ -95,9 +95,16 @@ fn read_csv(p: &Path) -> (Vec<String>, Vec<Vec<String>>) {
     (head, rows)
 }
 
+/// The images in the reference cache (each has its checksum file beside it).
 fn count_cache(dir: &Path) -> usize {
     std::fs::read_dir(dir.join(".cache"))
-        .map(|d| d.count())
+        .map(|d| {
+            d.filter(|e| {
+                e.as_ref()
+                    .is_ok_and(|e| e.path().extension().is_some_and(|x| x == "exr"))
+            })
+            .count()
+        })
         .unwrap_or(0)
 }
 

@@ -16,7 +16,7 @@
 
 use std::path::Path;
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::io::LoadOptions;
 use crate::mesh::Mesh;
 

@@ -4,6 +4,7 @@ use glam::DVec3;
 
 use super::*;
 use crate::io::{LoadOptions, Split};
+use crate::Error;
 
 pub(crate) const ASCII_42: &str = "# vtk DataFile Version 4.2
 two tets

@@ -343,3 +343,41 @@ fn unknown_and_repeated_params_exit_2_for_every_renderer() {
     assert!(!Path::new(o).exists());
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// An adapter that cannot blend `Rgba32Float` (wgpu's GL backend: llvmpipe without a Vulkan
+/// driver) is refused by name: its `Rgba16Float` target put the GPU renderers ~25x further from
+/// `cpu-pt`. Runs where the GL backend has an adapter (EGL installed, as on CI).
+#[test]
+fn an_adapter_without_f32_blending_is_refused_by_name() {
+    let gl = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_tetbench"))
+            .args(args)
+            .env("WGPU_BACKEND", "gl")
+            .env_remove("TETBENCH_ADAPTER")
+            .output()
+            .expect("run tetbench")
+    };
+    let list = stdout(&gl(&["list"]));
+    if !list.lines().any(|l| l.contains("(Gl, ")) {
+        eprintln!("an_adapter_without_f32_blending_is_refused_by_name: SKIPPED (no GL adapter)");
+        return;
+    }
+    let d = tmpdir("gl");
+    for renderer in ["ptint", "hapt"] {
+        let out = d.join(format!("{renderer}.png"));
+        let o = gl(&[
+            "render",
+            "spx:1500",
+            "--renderer",
+            renderer,
+            "--size",
+            "16x16",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert_user_error(&o, "cannot blend Rgba32Float");
+        assert!(stderr(&o).contains("(Gl, "), "{}", stderr(&o));
+        assert!(!out.exists());
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}

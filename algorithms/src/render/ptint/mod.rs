@@ -14,8 +14,7 @@
 //! 4. **draw** (pass 2): one instanced draw, 12 vertices per drawn tet, the fan pulled by
 //!    `ptint_fan.vert.wgsl` (triangles past the fan's count degenerate), shaded by
 //!    `volume.frag.wgsl` with the chosen integrator and blended `One, OneMinusSrcAlpha` back to
-//!    front into a float target (`Rgba32Float` where the adapter blends it, else `Rgba16Float`;
-//!    [`Renderer::device`] says which);
+//!    front into an `Rgba32Float` target ([`Renderer::device`] names it with the adapter);
 //! 5. **readback** of the image.
 //!
 //! Default sort `centroid`: PTINT sorts centroids on the CPU (bucket sort while the camera

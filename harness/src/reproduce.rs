@@ -160,7 +160,11 @@ fn files_section(section: Section, out: &Path, id: &str, status: &str) -> Result
     let mut table = crate::table::Table::default();
     if csv.exists() {
         let err = |e: csv::Error| Error::Input(format!("{}: {e}", csv.display()));
-        let mut r = csv::Reader::from_path(&csv).map_err(err)?;
+        let f = algorithms::io::open_input(&csv)?;
+        let mut r = csv::Reader::from_reader(algorithms::io::files::BoundedLines::new(
+            f,
+            crate::rows::MAX_CSV_LINE,
+        ));
         for h in r.headers().map_err(err)? {
             table.col(h, false);
         }

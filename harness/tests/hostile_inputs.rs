@@ -212,6 +212,18 @@ fn inputs_that_are_not_regular_files_are_refused_by_name() {
             );
         }
     }
+    // A shard's kept figure files (copied by merge).
+    let copy = d.join("shard-figure");
+    std::fs::create_dir_all(copy.join("figure")).unwrap();
+    for g in ["results.csv", "shard.txt"] {
+        std::fs::copy(shard.join(g), copy.join(g)).unwrap();
+    }
+    let p = copy.join("figure").join("cell.json");
+    mkfifo(&p);
+    one_line_error(
+        &tetbench(&["merge", "--out", s(&d.join("m-figure")), s(&copy)]),
+        &[s(&p), "named pipe"],
+    );
     let _ = std::fs::remove_dir_all(&d);
 }
 

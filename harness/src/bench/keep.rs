@@ -72,7 +72,8 @@ impl KeptCell {
         if !p.exists() {
             return Ok(None);
         }
-        let text = std::fs::read_to_string(&p).map_err(|e| Error::io(&p, e))?;
+        let text =
+            algorithms::io::read_input_string(&p, algorithms::io::files::MAX_SETTINGS_BYTES)?;
         serde_json::from_str(&text)
             .map(Some)
             .map_err(|e| Error::Input(format!("{}: {e}", p.display())))
@@ -102,7 +103,11 @@ pub struct Against {
 impl Against {
     /// What a variant's kept image was compared with (None: no error was measured).
     pub fn read(out: &Path, dataset: &str, variant: &str) -> Option<Against> {
-        let text = std::fs::read_to_string(variant_file(out, dataset, variant, "json")).ok()?;
+        let text = algorithms::io::read_input_string(
+            &variant_file(out, dataset, variant, "json"),
+            algorithms::io::files::MAX_SETTINGS_BYTES,
+        )
+        .ok()?;
         serde_json::from_str(&text).ok()
     }
 }
@@ -169,7 +174,9 @@ fn copy_tree(from: &Path, to: &Path) -> Result<()> {
         if src.is_dir() {
             copy_tree(&src, &dst)?;
         } else if src.extension().is_some_and(|e| e == "exr" || e == "json") {
-            std::fs::copy(&src, &dst).map_err(|e| Error::io(&dst, e))?;
+            // Opened as every input is (a named pipe there would block a plain copy).
+            let mut f = algorithms::io::open_input(&src)?;
+            algorithms::io::atomic_write(&dst, |w| std::io::copy(&mut f, w).map(|_| ()))?;
         }
     }
     Ok(())

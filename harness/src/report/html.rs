@@ -91,7 +91,9 @@ impl Section {
 
     /// Reads a saved section; None when there is none (or it is unreadable: an older run).
     pub fn load(path: &Path) -> Option<Section> {
-        let text = std::fs::read_to_string(path).ok()?;
+        let text =
+            algorithms::io::read_input_string(path, algorithms::io::files::MAX_SETTINGS_BYTES)
+                .ok()?;
         serde_json::from_str(&text).ok()
     }
 }

@@ -164,6 +164,11 @@ fn tiny_bench_writes_rows_caches_references_and_plots() {
     }
     // Two mesh sizes: the throughput plot is drawn.
     assert!(out.join("tets_per_s_vs_size.png").exists());
+    // The image figure of the sweep and the report beside the results.
+    for f in ["results-images.png", "results-images.svg", "index.html"] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+    assert!(stdout.contains("report: "), "{stdout}");
 
     // Second run (forced: the directory holds results): every reference image from the cache.
     let o = tetbench(&[

@@ -128,6 +128,10 @@ fn shards_merged_equal_the_unsharded_run() {
     assert!(o.status.success(), "{}", err_line(&o));
     same_rows(&full.join("results.csv"), &merged.join("results.csv"));
     assert!(merged.join("speed_vs_error.svg").exists());
+    // The merged sweep's figure (from the cells its shards kept) and its report.
+    for f in ["results-images.png", "index.html"] {
+        assert!(merged.join(f).is_file(), "{f} missing after merge");
+    }
 
     // A missing shard, a doubled one, and a shard of another experiment file are refused.
     let o = tetbench(&["merge", "--out", s(&d.join("m2")), s(&dirs[0]), s(&dirs[1])]);

@@ -734,7 +734,6 @@ fn preint_build_time_and_l_axis() {
         dt2 * 1e3
     );
     assert!(t.data().iter().all(|x| x.is_finite()));
-    assert!(dt < 2.0, "{dt} s");
     // s range covers points beyond [0, 1].
     let wide = tf_of(vec![pt(-0.5, [1.0; 3], 1.0), pt(2.0, [0.0; 3], 3.0)]);
     assert_eq!(PreintTable::with_size(&wide, 4, 4).s_range(), [-0.5, 2.0]);

@@ -5,7 +5,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::predicate::{coord, RayCtx};
-use super::Prepared;
+use super::{Prepared, Vert};
 use crate::camera::{Camera, Projection};
 use crate::mesh::{Mesh, FACE_VERTS};
 
@@ -20,13 +20,13 @@ use crate::mesh::{Mesh, FACE_VERTS};
 /// exactly two boundary faces, the two circulations run the edge in opposite directions. It is
 /// propagated breadth-first from the oriented faces; a connected patch of flat faces with no
 /// oriented neighbour keeps "positive".
-fn boundary_outward(mesh: &Mesh, pos: &[DVec3], bfs: &[u32]) -> Vec<bool> {
+fn boundary_outward(mesh: &Mesh, pos: &[Vert], bfs: &[u32]) -> Vec<bool> {
     let tets = mesh.tets();
     // 1 = out (FACE_VERTS circulation outward), 0 = in, 2 = undecided.
     let mut out: Vec<u8> = bfs
         .par_iter()
         .map(|&bf| {
-            let t = tets[bf as usize / 4].map(|v| coord(pos[v as usize]));
+            let t = tets[bf as usize / 4].map(|v| coord(pos[v as usize].p));
             // orient3d(a, b, c, d) = det[a − d, b − d, c − d] = −det(b − a, c − a, d − a).
             let o = robust::orient3d(t[0], t[1], t[2], t[3]);
             if o < 0.0 {
@@ -112,12 +112,12 @@ const LEAF_SIZE: usize = 4;
 
 impl Bvh {
     /// `boundary`: the boundary faces as 4·tet + face, ascending.
-    pub(super) fn build(mesh: &Mesh, pos: &[DVec3], boundary: Vec<u32>) -> Bvh {
+    pub(super) fn build(mesh: &Mesh, pos: &[Vert], boundary: Vec<u32>) -> Bvh {
         let mut faces: Vec<u32> = boundary.clone();
         let tri = |bf: u32| mesh.face_vertices(bf as usize / 4, bf as usize % 4);
         let centroid = |bf: u32| {
             let v = tri(bf);
-            (pos[v[0] as usize] + pos[v[1] as usize] + pos[v[2] as usize]) / 3.0
+            (pos[v[0] as usize].p + pos[v[1] as usize].p + pos[v[2] as usize].p) / 3.0
         };
         let mut nodes = Vec::with_capacity(2 * faces.len() / LEAF_SIZE + 1);
         // Iterative build with an explicit stack of (node index, start, end).
@@ -133,8 +133,8 @@ impl Bvh {
             let (mut clo, mut chi) = (lo, hi);
             for &f in &faces[a..b] {
                 for v in tri(f) {
-                    lo = lo.min(pos[v as usize]);
-                    hi = hi.max(pos[v as usize]);
+                    lo = lo.min(pos[v as usize].p);
+                    hi = hi.max(pos[v as usize].p);
                 }
                 let c = centroid(f);
                 clo = clo.min(c);

@@ -184,8 +184,19 @@ impl Renderer for RayCaster {
         let c = mesh.bbox().center();
         let l = mesh.diagonal();
         let map = tf.scalar_map(mesh.scalar_range());
-        let pos: Vec<DVec3> = mesh.positions().par_iter().map(|p| *p - c).collect();
-        let s: Vec<f64> = mesh.scalars().par_iter().map(|&v| map.s(v)).collect();
+        // Built in the order that keeps the peak low: the links (and the few bytes a tet the
+        // matching of faces holds beside them) first, then the signs and the vertex table.
+        let next = mesh.face_links();
+        // The boundary faces in `Mesh::boundary_faces` order.
+        let boundary: Vec<u32> = next
+            .par_iter()
+            .enumerate()
+            .flat_map_iter(|(t, n)| {
+                (0..4)
+                    .filter(move |&f| n[f] == BOUNDARY)
+                    .map(move |f| (4 * t + f) as u32)
+            })
+            .collect();
         // The sign of `Mesh::volumes` (the same expression), without caching 8 B/tet there.
         let sign: Vec<i8> = (0..mesh.num_tets())
             .into_par_iter()
@@ -198,40 +209,20 @@ impl Renderer for RayCaster {
                 }
             })
             .collect();
-        let (next, boundary) = {
-            let adj = mesh.adjacency_transient();
-            let nb = &adj.neighbors;
-            let next: Vec<[u32; 4]> = nb
-                .par_iter()
-                .enumerate()
-                .map(|(t, n)| {
-                    n.map(|x| {
-                        if x == BOUNDARY {
-                            return BOUNDARY;
-                        }
-                        // Adjacency is symmetric by construction; a break is treated as
-                        // boundary by the walk.
-                        match (0..4).find(|&f| nb[x as usize][f] == t as u32) {
-                            Some(back) => 4 * x + back as u32,
-                            None => BOUNDARY,
-                        }
-                    })
-                })
-                .collect();
-            // The boundary faces in `Mesh::boundary_faces` order.
-            let boundary: Vec<u32> = (0..nb.len())
-                .flat_map(|t| (0..4).map(move |f| (t, f)))
-                .filter(|&(t, f)| nb[t][f] == BOUNDARY)
-                .map(|(t, f)| (4 * t + f) as u32)
-                .collect();
-            (next, boundary)
-        };
-        let max_abs = pos
-            .iter()
-            .map(|p| p.abs().max_element())
-            .fold(0.0, f64::max);
-        let bvh = Bvh::build(mesh, &pos, boundary);
-        let verts = pos.iter().zip(&s).map(|(&p, &s)| Vert { p, s }).collect();
+        let verts: Vec<Vert> = mesh
+            .positions()
+            .par_iter()
+            .zip(mesh.scalars().par_iter())
+            .map(|(p, &v)| Vert {
+                p: *p - c,
+                s: map.s(v),
+            })
+            .collect();
+        let max_abs = verts
+            .par_iter()
+            .map(|v| v.p.abs().max_element())
+            .reduce(|| 0.0, f64::max);
+        let bvh = Bvh::build(mesh, &verts, boundary);
         self.state = Some(Prepared {
             verts,
             sign,

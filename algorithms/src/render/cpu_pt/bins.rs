@@ -1,5 +1,6 @@
-//! Binning of `cpu-pt`'s tets to tiles: a counting sort of the (tet, tile) pairs by tile, stable
-//! in the visibility order, into one flat array (no per-tile `Vec`s).
+//! Binning of `cpu-pt`'s tets to tiles: a counting sort of the (tet, tile) pairs of one part of
+//! the visibility order by tile, stable in the order, into one flat array (no per-tile `Vec`s).
+//! The counts and offsets are 64-bit: a part's pairs are bounded by memory, not by 2³².
 
 use rayon::prelude::*;
 
@@ -8,44 +9,50 @@ use crate::util::schedule::heaviest_first;
 
 /// The tets of every tile in visibility order, in one array (a counting sort of the
 /// (tet, tile) pairs by tile, stable in the order): tile k's tets are
-/// `items[start[k]..start[k + 1]]`.
+/// `items[start[k]..start[k + 1]]`, as places in the part.
 #[derive(Default)]
 pub(super) struct Bins {
-    start: Vec<u32>,
+    start: Vec<usize>,
     pub(super) items: Vec<u32>,
-    /// Per chunk of the order, its running offset per tile.
-    offsets: Vec<Vec<u32>>,
+    /// Per chunk of the part, its running offset per tile.
+    offsets: Vec<Vec<usize>>,
 }
 
 impl Bins {
     pub(super) fn bytes(&self) -> usize {
-        (self.start.capacity() + self.items.capacity()) * 4
-            + self.offsets.iter().map(|o| o.capacity() * 4).sum::<usize>()
+        self.start.capacity() * 8
+            + self.items.capacity() * 4
+            + self.offsets.iter().map(|o| o.capacity() * 8).sum::<usize>()
     }
 
     pub(super) fn tile(&self, k: usize) -> &[u32] {
-        &self.items[self.start[k] as usize..self.start[k + 1] as usize]
+        &self.items[self.start[k]..self.start[k + 1]]
     }
 
-    /// `f` of each of the first `ntiles` tiles in parallel, the results in tile order: the
-    /// tiles are handed to the threads one at a time, those with the most tets first.
-    pub(super) fn per_tile<T: Send>(&self, ntiles: usize, f: impl Fn(usize) -> T + Sync) -> Vec<T> {
-        heaviest_first((0..ntiles).collect(), |k, _| self.tile(k).len() as u64, f)
+    /// `f(k, buf)` of each tile `k` that has tets, with its buffer `bufs[k]`, in parallel; the
+    /// tiles are handed to the threads one at a time, those with the most tets first. Returns
+    /// the sum of the results (the fragments drawn).
+    pub(super) fn per_tile(
+        &self,
+        bufs: &mut [Vec<[f32; 4]>],
+        f: impl Fn(usize, &mut [[f32; 4]]) -> u64 + Sync,
+    ) -> u64 {
+        let busy: Vec<(usize, &mut Vec<[f32; 4]>)> = bufs
+            .iter_mut()
+            .enumerate()
+            .filter(|(k, _)| !self.tile(*k).is_empty())
+            .collect();
+        heaviest_first(busy, |_, (k, _)| self.tile(*k).len() as u64, |(k, b)| f(k, b))
+            .into_iter()
+            .sum()
     }
 
-    /// Bins the tets of `order` by their tile ranges, `rects[t]` for tet `t` (with `None`, the
-    /// ids are `0..rects.len()`: records already in the order): chunks of the order counted in
-    /// parallel, offsets by a prefix sum over (tile, chunk), then each chunk writes its own
-    /// disjoint ranges. A tile's items are the ids, in the order.
-    pub(super) fn build(
-        &mut self,
-        order: Option<&[u32]>,
-        rects: &[TileRect],
-        ntx: usize,
-        ntiles: usize,
-    ) {
-        let n = order.map_or(rects.len(), |o| o.len());
-        let id = |i: usize| order.map_or(i as u32, |o| o[i]);
+    /// Bins the places `0..rects.len()` of a part by their tile ranges: chunks of the part
+    /// counted in parallel, offsets by a prefix sum over (tile, chunk), then each chunk writes
+    /// its own disjoint ranges. A tile's items are the places, in the order.
+    pub(super) fn build(&mut self, rects: &[TileRect], ntx: usize, ntiles: usize) {
+        assert!(rects.len() <= u32::MAX as usize, "places of a part are 32-bit");
+        let n = rects.len();
         let nchunks = (rayon::current_num_threads().max(1) * 4).min(n.max(1));
         let chunk = n.div_ceil(nchunks).max(1);
         let chunks: Vec<std::ops::Range<usize>> =
@@ -62,7 +69,7 @@ impl Bins {
                 cnt.clear();
                 cnt.resize(ntiles * LANES, 0);
                 for (m, i) in ids.clone().enumerate() {
-                    let r = rects[id(i) as usize];
+                    let r = rects[i];
                     for ty in r[1]..r[3] + 1 {
                         let row = ty as usize * ntx;
                         for tx in r[0]..r[2] + 1 {
@@ -77,7 +84,7 @@ impl Bins {
             });
         self.start.clear();
         self.start.resize(ntiles + 1, 0);
-        let mut sum = 0u32;
+        let mut sum = 0usize;
         for k in 0..ntiles {
             self.start[k] = sum;
             for c in self.offsets.iter_mut() {
@@ -88,7 +95,7 @@ impl Bins {
         }
         self.start[ntiles] = sum;
         self.items.clear();
-        self.items.resize(sum as usize, 0);
+        self.items.resize(sum, 0);
         let out = SharedOut(self.items.as_mut_ptr());
         self.offsets
             .par_iter_mut()
@@ -96,8 +103,7 @@ impl Bins {
             .for_each(|(off, ids)| {
                 let out = &out;
                 for i in ids.clone() {
-                    let t = id(i);
-                    let r = rects[t as usize];
+                    let r = rects[i];
                     for ty in r[1]..r[3] + 1 {
                         let row = ty as usize * ntx;
                         for tx in r[0]..r[2] + 1 {
@@ -105,7 +111,7 @@ impl Bins {
                             // SAFETY: chunk c's pairs of tile k go to
                             // [offset(k, c), offset(k, c + 1)), disjoint from every other
                             // (tile, chunk)'s range and inside `items` (sized to the total).
-                            unsafe { out.0.add(*o as usize).write(t) };
+                            unsafe { out.0.add(*o).write(i as u32) };
                             *o += 1;
                         }
                     }

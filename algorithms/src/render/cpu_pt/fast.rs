@@ -55,9 +55,10 @@ pub(super) struct FastRec {
     pub case: u8,
 }
 
-/// Renders tile (tx, ty) of a `w`×`h` image from its tets (`items`, back to front); returns the
-/// tile's RGBA rows (TILE wide) and its fragment count. Compiled for the best instruction set
-/// of the CPU (`pulp`'s run-time dispatch), so that the span kernel runs 8 lanes wide.
+/// Renders tile (tx, ty) of a `w`×`h` image from its tets (`items`, places in `recs`, back to
+/// front) over what `buf` (the tile's RGBA rows, TILE wide) holds; returns the fragment count.
+/// Compiled for the best instruction set of the CPU (`pulp`'s run-time dispatch), so that the
+/// span kernel runs 8 lanes wide.
 // Never inlined, so that a profile (callgrind's `--toggle-collect='*draw_tile*'`) finds the
 // draw under any inlining decision of the caller.
 #[inline(never)]
@@ -67,7 +68,8 @@ pub(super) fn draw_tile(
     integ: &FastIntegrator,
     tile: (u32, u32),
     size: (u32, u32),
-) -> (Vec<[f32; 4]>, u64) {
+    buf: &mut [[f32; 4]],
+) -> u64 {
     pulp::Arch::new().dispatch(DrawTile {
         recs,
         items,
@@ -75,6 +77,7 @@ pub(super) fn draw_tile(
         tile,
         size,
         kernel: Kernel::Spans,
+        buf,
     })
 }
 
@@ -97,10 +100,12 @@ pub(super) struct DrawTile<'a> {
     pub(super) tile: (u32, u32),
     pub(super) size: (u32, u32),
     pub(super) kernel: Kernel,
+    /// The tile's buffer, composited onto.
+    pub(super) buf: &'a mut [[f32; 4]],
 }
 
 impl pulp::WithSimd for DrawTile<'_> {
-    type Output = (Vec<[f32; 4]>, u64);
+    type Output = u64;
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, simd: S) -> Self::Output {
         self.run(simd)
@@ -109,10 +114,9 @@ impl pulp::WithSimd for DrawTile<'_> {
 
 impl DrawTile<'_> {
     #[inline(always)]
-    fn run<S: pulp::Simd>(self, simd: S) -> (Vec<[f32; 4]>, u64) {
+    fn run<S: pulp::Simd>(self, simd: S) -> u64 {
         let (recs, items, integ) = (self.recs, self.items, self.integ);
-        let ts = TILE as usize;
-        let mut buf = vec![[0.0f32; 4]; ts * ts];
+        let buf = self.buf;
         let clip = super::bins::tile_clip(self.tile.0, self.tile.1, self.size.0, self.size.1);
         let (x0, y0) = (clip[0], clip[1]);
         let mut qu = Queue::new(integ);
@@ -145,7 +149,7 @@ impl DrawTile<'_> {
                     Fit::Empty => continue,
                     Fit::Small => {
                         let span = qu.span(&r.s);
-                        small(&sm, r, case, (x0, y0), span, &mut qu, &mut buf);
+                        small(&sm, r, case, (x0, y0), span, &mut qu, buf);
                         continue;
                     }
                     Fit::Large => {}
@@ -156,14 +160,14 @@ impl DrawTile<'_> {
             };
             let span = qu.span(&r.s);
             if self.kernel == Kernel::Spans && tr.valid == (1 << tr.ntri) - 1 {
-                spans(simd, &mut tr, r, case, (x0, y0), span, &mut qu, &mut buf);
+                spans(simd, &mut tr, r, case, (x0, y0), span, &mut qu, buf);
             } else {
                 let planes = Planes::new(&tr, r, case);
-                per_pixel(&mut tr, &planes, (x0, y0), span, &mut qu, &mut buf);
+                per_pixel(&mut tr, &planes, (x0, y0), span, &mut qu, buf);
             }
         }
-        qu.flush(&mut buf);
-        (buf, qu.frags)
+        qu.flush(buf);
+        qu.frags
     }
 }
 

@@ -36,24 +36,28 @@ impl Shade for &FastIntegrator {
     }
 }
 
-/// Renders every tile in parallel (monomorphised per [`Shade`]).
+/// Renders the tets of one part of the order into every tile's buffer, the tiles in parallel
+/// (monomorphised per [`Shade`]); returns the fragments drawn.
 pub(super) fn draw_tiles<S: Shade>(
     ctx: DrawCtx<'_, S>,
     bins: &Bins,
     ntx: u32,
-    ntiles: usize,
-) -> Vec<(Vec<[f32; 4]>, u64)> {
-    bins.per_tile(ntiles, |k| {
+    bufs: &mut [Vec<[f32; 4]>],
+) -> u64 {
+    bins.per_tile(bufs, |k, buf| {
         let (tx, ty) = (k as u32 % ntx, k as u32 / ntx);
-        ctx.draw_tile(tx, ty, bins.tile(k))
+        ctx.draw_tile(tx, ty, bins.tile(k), buf)
     })
 }
 
 pub(super) struct DrawCtx<'a, S> {
     pub(super) tets: &'a [[u32; 4]],
+    /// The part of the visibility order drawn: the tet at each place.
+    pub(super) part: &'a [u32],
     /// Centred positions, for the unsnapped projection of [`fan_segment`].
     pub(super) pos: &'a [[f32; 3]],
     pub(super) verts: &'a [VertProj],
+    /// The classified tets of the part, by place.
     pub(super) rec: &'a [TetProj],
     pub(super) s: &'a [f32],
     pub(super) integ: S,
@@ -63,11 +67,10 @@ pub(super) struct DrawCtx<'a, S> {
 }
 
 impl<S: Shade> DrawCtx<'_, S> {
-    /// Renders tile (tx, ty) from its bins (in order); returns the tile's RGBA rows (TILE wide)
-    /// and its fragment count.
-    fn draw_tile(&self, tx: u32, ty: u32, bin: &[u32]) -> (Vec<[f32; 4]>, u64) {
+    /// Renders tile (tx, ty) from its bin (places of the part, in order) over what `buf` (its
+    /// RGBA rows, TILE wide) holds; returns its fragment count.
+    fn draw_tile(&self, tx: u32, ty: u32, bin: &[u32], buf: &mut [[f32; 4]]) -> u64 {
         let ts = TILE as usize;
-        let mut buf = vec![[0.0f32; 4]; ts * ts];
         let clip = super::bins::tile_clip(tx, ty, self.camera.width, self.camera.height);
         let (x0, y0) = (clip[0], clip[1]);
         // sec θ per pixel of the tile (perspective): |ray| / (ray · f) with the ray from the eye
@@ -87,17 +90,18 @@ impl<S: Shade> DrawCtx<'_, S> {
             Vec::new()
         };
         let mut frags = 0u64;
-        for &t in bin {
-            frags += self.draw_tet(t as usize, clip, &mut buf, &sec);
+        for &i in bin {
+            frags += self.draw_tet(i as usize, clip, buf, &sec);
         }
-        (buf, frags)
+        frags
     }
 
-    /// Rasterises one tet into the tile buffer (origin clip[0], clip[1]).
+    /// Rasterises the tet at place `i` of the part into the tile buffer (origin clip[0],
+    /// clip[1]).
     #[inline]
-    fn draw_tet(&self, t: usize, clip: [i64; 4], buf: &mut [[f32; 4]], sec: &[f64]) -> u64 {
-        let tet = self.tets[t];
-        let th = &self.rec[t].thick;
+    fn draw_tet(&self, i: usize, clip: [i64; 4], buf: &mut [[f32; 4]], sec: &[f64]) -> u64 {
+        let tet = self.tets[self.part[i] as usize];
+        let th = &self.rec[i].thick;
         let q = tet.map(|v| {
             let p = self.verts[v as usize].q;
             [p[0] as i64, p[1] as i64]

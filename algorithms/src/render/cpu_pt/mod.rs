@@ -64,7 +64,6 @@ use crate::image::Image;
 use crate::mesh::Mesh;
 use crate::optics::{integrator, Integrator, INTEGRATORS};
 use crate::optics::fast::FastIntegrator;
-use crate::render::pt::TABLE;
 use crate::sort::{Sort, SortStats};
 use crate::tf::TransferFunction;
 
@@ -146,6 +145,8 @@ struct Scratch {
     rects: Vec<TileRect>,
     order: Vec<u32>,
     bins: Bins,
+    /// One RGBA buffer per tile (TILE² pixels), composited part after part.
+    tiles: Vec<Vec<[f32; 4]>>,
 }
 
 impl Scratch {
@@ -156,8 +157,14 @@ impl Scratch {
             + self.rects.capacity() * std::mem::size_of::<TileRect>()
             + self.order.capacity() * 4
             + self.bins.bytes()
+            + self.tiles.iter().map(|t| t.capacity() * 16).sum::<usize>()
     }
 }
+
+/// Tets of the visibility order classified and drawn at a time (see `render`): their records
+/// and tile ranges, 72 bytes a tet on the fast path, are the part of the frame's scratch that
+/// does not grow with the mesh.
+const PART: usize = 1 << 20;
 
 
 impl CpuPt {
@@ -250,10 +257,8 @@ impl Renderer for CpuPt {
         let fast = st.shading.f32().filter(|_| !persp);
         let (ntx, nty) = (w.div_ceil(TILE), h.div_ceil(TILE));
 
-        // 1. Project and classify; 2. sort. The sort runs on this thread while the pool
-        // projects the vertices beside it (and, on the general path, classifies the tets too);
-        // the fast path classifies its tets after the sort, writing each record at its place in
-        // the order (see the module docs). `sort_ms` is the sort's own time and `project_ms`
+        // 1. Project the vertices and 2. sort: the sort runs on this thread while the pool
+        // projects the vertices beside it. `sort_ms` is the sort's own time and `project_ms`
         // the project stage's wall time beyond it, so the stages still add up to the frame.
         let mut sc = std::mem::take(&mut self.scratch);
         let mut order = std::mem::take(&mut sc.order);
@@ -265,12 +270,7 @@ impl Renderer for CpuPt {
                 let sorted = sorter.sort(mesh, camera, &mut order);
                 (sorted, ms_since(t))
             },
-            || {
-                project::project_verts(st, camera, &mut sc.verts);
-                if fast.is_none() {
-                    project::project(st, mesh, camera, None, &mut sc);
-                }
-            },
+            || project::project_verts(st, camera, &mut sc.verts),
         );
         let mut project_ms = (ms_since(t1) - sort_ms).max(0.0);
         self.sort_stats = match sorted {
@@ -282,88 +282,93 @@ impl Renderer for CpuPt {
             }
         };
         let cycles = self.sort_stats.cells_in_cycles;
-        let mut drawn_records = None;
-        if fast.is_some() {
-            let t0 = Instant::now();
-            drawn_records = project::project(st, mesh, camera, Some(&order), &mut sc);
-            project_ms += ms_since(t0);
-        }
-        sc.order = order;
 
-        // 3. Draw: bin in sorted order, then render the tiles in parallel.
-        let t2 = Instant::now();
+        // Then, part after part of the order (back to front), 1. classify its tets into
+        // records at their places in the part, and 3. draw: bin the part's records to tiles in
+        // order and composite each tile's over what its buffer holds from the parts before.
+        // Each pixel sees the same fragments in the same order as in one pass over all tets,
+        // so the image is the same; only one part's records are held at a time.
         let ntiles = (ntx * nty) as usize;
-        let mut bins = std::mem::take(&mut sc.bins);
-        // The fast path's records and tile ranges are in the order already.
-        let ids = if fast.is_some() { None } else { Some(&sc.order[..]) };
-        bins.build(ids, &sc.rects, ntx as usize, ntiles);
-        let bin_ms = ms_since(t2);
-        // Of the tets in the order (a skipping sort leaves some out: `tets_skipped`).
-        // (The fast path's project stage counted its records.)
-        let drawn = drawn_records.unwrap_or_else(|| {
-            sc.order
-                .iter()
-                .filter(|&&t| TABLE[sc.tets[t as usize].thick.case as usize].drawn())
-                .count()
-        });
-        let pairs = bins.items.len();
-        // The image, and room for the tiles' buffers (together the image's size again): both
-        // must fit, or the frame fails with "out of memory" before any tile is drawn. The room
-        // is a check only (given back at once), as each tile allocates its own buffer.
+        // The image and the tiles' buffers (together the image's size again) must fit, or the
+        // frame fails with "out of memory" before any tile is drawn.
+        let mut bufs = std::mem::take(&mut sc.tiles);
+        bufs.resize_with(ntiles, Vec::new);
+        bufs.truncate(ntiles);
+        let px = (TILE * TILE) as usize;
         let room = Image::try_new(w, h).and_then(|image| {
-            crate::util::alloc::try_vec_with_capacity::<[f32; 4]>(ntiles * (TILE * TILE) as usize)?;
+            for b in bufs.iter_mut() {
+                b.clear();
+                crate::util::alloc::try_grow(b, px)?;
+            }
             Ok(image)
         });
         let mut image = match room {
             Ok(image) => image,
             Err(e) => {
-                sc.bins = bins;
+                sc.order = order;
+                sc.tiles = bufs;
                 self.scratch = sc;
                 return Err(e);
             }
         };
-        let tiles: Vec<(Vec<[f32; 4]>, u64)> = match (fast, &st.shading) {
-            (Some(integ), _) => bins.per_tile(ntiles, |k| {
-                let t = (k as u32 % ntx, k as u32 / ntx);
-                fast::draw_tile(&sc.fast, bins.tile(k), integ, t, (w, h))
-            }),
-            (None, Shading::F32(integ)) => draw_tiles(
-                DrawCtx {
-                    tets: mesh.tets(),
-                    pos: &st.pos,
-                    verts: &sc.verts,
-                    rec: &sc.tets,
-                    s: &st.s,
-                    integ,
-                    camera,
-                    persp,
-                    inv_l: st.inv_l,
-                },
-                &bins,
-                ntx,
-                ntiles,
-            ),
-            (None, Shading::F64(integ)) => draw_tiles(
-                DrawCtx {
-                    tets: mesh.tets(),
-                    pos: &st.pos,
-                    verts: &sc.verts,
-                    rec: &sc.tets,
-                    s: &st.s,
-                    integ: integ.as_ref(),
-                    camera,
-                    persp,
-                    inv_l: st.inv_l,
-                },
-                &bins,
-                ntx,
-                ntiles,
-            ),
-        };
+        bufs.par_iter_mut().for_each(|b| b.resize(px, [0.0; 4]));
+        let (mut drawn, mut pairs, mut fragments) = (0usize, 0usize, 0u64);
+        let (mut draw_ms, mut bin_ms) = (0.0, 0.0);
+        let mut bins = std::mem::take(&mut sc.bins);
+        for part in order.chunks(PART) {
+            let t0 = Instant::now();
+            drawn += project::project(st, mesh, camera, part, fast.is_some(), &mut sc);
+            project_ms += ms_since(t0);
+            let t2 = Instant::now();
+            bins.build(&sc.rects, ntx as usize, ntiles);
+            bin_ms += ms_since(t2);
+            pairs += bins.items.len();
+            fragments += match (fast, &st.shading) {
+                (Some(integ), _) => bins.per_tile(&mut bufs, |k, buf| {
+                    let t = (k as u32 % ntx, k as u32 / ntx);
+                    fast::draw_tile(&sc.fast, bins.tile(k), integ, t, (w, h), buf)
+                }),
+                (None, Shading::F32(integ)) => draw_tiles(
+                    DrawCtx {
+                        tets: mesh.tets(),
+                        part,
+                        pos: &st.pos,
+                        verts: &sc.verts,
+                        rec: &sc.tets,
+                        s: &st.s,
+                        integ,
+                        camera,
+                        persp,
+                        inv_l: st.inv_l,
+                    },
+                    &bins,
+                    ntx,
+                    &mut bufs,
+                ),
+                (None, Shading::F64(integ)) => draw_tiles(
+                    DrawCtx {
+                        tets: mesh.tets(),
+                        part,
+                        pos: &st.pos,
+                        verts: &sc.verts,
+                        rec: &sc.tets,
+                        s: &st.s,
+                        integ: integ.as_ref(),
+                        camera,
+                        persp,
+                        inv_l: st.inv_l,
+                    },
+                    &bins,
+                    ntx,
+                    &mut bufs,
+                ),
+            };
+            draw_ms += ms_since(t2);
+        }
+        sc.order = order;
         sc.bins = bins;
-        let mut fragments = 0u64;
-        for (k, (buf, nf)) in tiles.iter().enumerate() {
-            fragments += nf;
+        let t3 = Instant::now();
+        for (k, buf) in bufs.iter().enumerate() {
             let (x0, y0) = ((k as u32 % ntx) * TILE, (k as u32 / ntx) * TILE);
             let tw = TILE.min(w - x0) as usize;
             for (r, row) in buf.chunks(TILE as usize).enumerate() {
@@ -375,7 +380,8 @@ impl Renderer for CpuPt {
                 image.pixels[o..o + tw].copy_from_slice(&row[..tw]);
             }
         }
-        let draw_ms = ms_since(t2);
+        sc.tiles = bufs;
+        draw_ms += ms_since(t3);
         let scratch_bytes = sc.bytes();
         let (skipped, discarded) = (mesh.num_tets() - sc.order.len(), sc.order.len() - drawn);
         self.scratch = sc;

@@ -1,6 +1,7 @@
-//! `cpu-pt`'s project stage: every vertex to snapped pixel coordinates and depth, every tet
-//! classified by the ternary truth table of [`crate::render::pt`] and given its tile range; for the fast
-//! path, the tet's [`FastRec`] written at its place in the visibility order.
+//! `cpu-pt`'s project stage: every vertex to snapped pixel coordinates and depth, every tet of
+//! a part of the visibility order classified by the ternary truth table of
+//! [`crate::render::pt`] and given its tile range; for the fast path, the tet's [`FastRec`]
+//! written at its place in the part.
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -59,20 +60,20 @@ pub(super) fn project_verts(st: &Prepared, camera: &Camera, verts: &mut Vec<Vert
         .collect_into_vec(verts);
 }
 
-/// Classifies the tets of `mesh` for `camera` into `sc`: either (`order`: the
-/// fast path) a record and a tile range per place of the visibility order (`fast[i]` and
-/// `rects[i]` for tet `order[i]`), or every tet's classification and tile range in mesh order
-/// (`tets`, `rects`). On the fast path, returns how many of the records are of a drawn class
-/// (counted here, in parallel, rather than by a serial pass over the records afterwards: 1.4 ms
-/// of post's frame at 512²); the general path's drawn tets are counted over the order.
-/// (`sc.verts` must hold [`project_verts`]'s output for this camera.)
+/// Classifies the tets of `part` (a run of places of the visibility order) for `camera` into
+/// `sc`, by their place in the part: on the fast path (`fast`) a record and a tile range
+/// (`fast[i]` and `rects[i]` for tet `part[i]`), on the general path a classification and a
+/// tile range (`tets[i]`, `rects[i]`). Returns how many of them are of a drawn class (counted
+/// here, in parallel, rather than by a serial pass over the records afterwards: 1.4 ms of
+/// post's frame at 512²). (`sc.verts` must hold [`project_verts`]'s output for this camera.)
 pub(super) fn project(
     st: &Prepared,
     mesh: &Mesh,
     camera: &Camera,
-    order: Option<&[u32]>,
+    part: &[u32],
+    fast: bool,
     sc: &mut Scratch,
-) -> Option<usize> {
+) -> usize {
     let (w, h) = (camera.width, camera.height);
     let persp = camera.projection == Projection::Persp;
     let verts = &sc.verts;
@@ -108,13 +109,12 @@ pub(super) fn project(
         }
         (thick, tiles)
     };
-    if let Some(order) = order {
-        sc.tets = Vec::new();
-        sc.fast.resize(order.len(), FastRec::default());
-        sc.rects.resize(order.len(), NO_TILES);
-        let (fr, rects, tets) = (&mut sc.fast, &mut sc.rects, mesh.tets());
-        let drawn = order
-            .par_chunks(CHUNK)
+    let tets = mesh.tets();
+    sc.rects.resize(part.len(), NO_TILES);
+    if fast {
+        sc.fast.resize(part.len(), FastRec::default());
+        let (fr, rects) = (&mut sc.fast, &mut sc.rects);
+        part.par_chunks(CHUNK)
             .zip(fr.par_chunks_mut(CHUNK).zip(rects.par_chunks_mut(CHUNK)))
             .map(|(ids, (fr, rects))| {
                 pulp::Arch::new().dispatch(FastChunk {
@@ -127,22 +127,19 @@ pub(super) fn project(
                     tiles_of: &tiles_of,
                 })
             })
-            .sum();
-        Some(drawn)
+            .sum()
     } else {
-        sc.fast = Vec::new();
-        sc.tets.resize(mesh.num_tets(), TetProj::default());
-        sc.rects.resize(mesh.num_tets(), NO_TILES);
+        sc.tets.resize(part.len(), TetProj::default());
         let (tp, rects) = (&mut sc.tets, &mut sc.rects);
-        mesh.tets()
-            .par_iter()
+        part.par_iter()
             .zip(tp.par_iter_mut().zip(rects.par_iter_mut()))
-            .for_each(|(t, (p, r))| {
-                let (thick, tiles) = classify_tet(t);
+            .map(|(&t, (p, r))| {
+                let (thick, tiles) = classify_tet(&tets[t as usize]);
                 *r = tiles;
                 *p = TetProj { thick };
-            });
-        None
+                TABLE[thick.case as usize].drawn() as usize
+            })
+            .sum()
     }
 }
 

@@ -447,14 +447,17 @@ fn span_kernel_matches_per_pixel_kernel() {
             let mut frags = 0;
             for k in 0..(ntx * h.div_ceil(TILE)) {
                 let run = |kernel| {
-                    pulp::Arch::new().dispatch(DrawTile {
+                    let mut buf = vec![[0.0f32; 4]; (TILE * TILE) as usize];
+                    let n = pulp::Arch::new().dispatch(DrawTile {
                         recs: &sc.fast,
                         items: sc.bins.tile(k as usize),
                         integ,
                         tile: (k % ntx, k / ntx),
                         size: (w, h),
                         kernel,
-                    })
+                        buf: &mut buf,
+                    });
+                    (buf, n)
                 };
                 let ((sp, nsp), (pp, npp)) = (run(Kernel::Spans), run(Kernel::PerPixel));
                 assert_eq!(nsp, npp, "tile {k} ({a}, {e})");

@@ -2,25 +2,24 @@
 //! classification, Maximo et al. 2008, and HAPT's per-fragment integration, Maximo et al. 2010).
 //!
 //! Per frame:
-//! 1. **project** — every vertex to snapped pixel coordinates and depth; every tet classified by
-//!    the ternary truth table of [`crate::render::pt`] (thick vertex, `s_f`, `s_b`, `l`, fan);
-//! 2. **sort** — the visibility order, back to front (farthest first);
-//! 3. **draw** — the drawn tets are binned to 128×128-pixel tiles in sorted order; tiles are
-//!    rendered in parallel (rayon), each compositing its tets in that order into its own f32
-//!    RGBA buffer, so the result is the same as one sequential back-to-front pass. Per fragment,
-//!    (`s_f`, `s_b`, `l`) are interpolated over the fan triangle (thick vertex: its values; the
-//!    silhouette vertices: `s_f = s_b = s_v`, `l = 0`), the integrator gives the premultiplied
-//!    segment and it is composited "over": `I ← I_seg + (1 − α_seg)·I` (CONVENTIONS §4).
+//! 1. **sort** — the visibility order, back to front (farthest first), while the rest of the
+//!    pool projects every vertex to snapped pixel coordinates and depth;
+//! 2. **project** — part after part of the order (a million tets at a time), each tet of the
+//!    part classified by the ternary truth table of [`crate::render::pt`] (thick vertex, `s_f`,
+//!    `s_b`, `l`, fan) into a record at its place in the part, so that the draw reads a tile's
+//!    records in increasing addresses (and tets a skipping sort leaves out are not projected);
+//! 3. **draw** — the part's drawn tets are binned to 128×128-pixel tiles in order; tiles are
+//!    rendered in parallel (rayon), each compositing its tets in that order over its own f32
+//!    RGBA buffer, which holds the parts before. Each pixel meets the same fragments in the
+//!    same order as in one sequential back-to-front pass, so the image is the same. Per
+//!    fragment, (`s_f`, `s_b`, `l`) are interpolated over the fan triangle (thick vertex: its
+//!    values; the silhouette vertices: `s_f = s_b = s_v`, `l = 0`), the integrator gives the
+//!    premultiplied segment and it is composited "over": `I ← I_seg + (1 − α_seg)·I`
+//!    (CONVENTIONS §4).
 //!
-//! On the fast path (ortho, f32 integrator) the sort runs first and the project stage writes
-//! each tet's record at its place in the visibility order, so that the draw reads a tile's
-//! records in increasing addresses instead of at random (and tets a skipping sort leaves out
-//! are not projected).
-//!
-//! The sort runs on one thread while the rest of the pool projects the vertices (and, on the
-//! general path, classifies the tets), which need no order. So `sort_ms` is the sort's own time
-//! and `project_ms` the project stage's wall time beyond it: the three stages still add up to
-//! the frame.
+//! The sort runs on one thread while the pool projects the vertices, which need no order. So
+//! `sort_ms` is the sort's own time and `project_ms` the project stage's wall time beyond it
+//! plus the parts' classification: the three stages still add up to the frame.
 //!
 //! **Interpolation.** In ortho, the ray through a fan triangle enters and leaves the tet through
 //! the same two faces everywhere in it, so for a field linear in the tet `s_f`, `s_b` and `l` are
@@ -37,8 +36,9 @@
 //!
 //! **Memory.** `prepare` keeps the centred f32 positions and the f32 transfer-function
 //! coordinate per vertex (16 bytes a vertex) and the integrator's tables. The per-frame scratch
-//! (32 bytes a vertex, 72 a tet, 4 a tet for the order, 4 per tet-tile pair for the bins) is
-//! allocated on the first frame and reused; its size is the `scratch_bytes` counter.
+//! (32 bytes a vertex, 4 a tet for the order, and for one part of it 72 bytes a tet and 4 per
+//! tet-tile pair for the bins, plus one buffer per tile) is allocated on the first frame and
+//! reused; its size is the `scratch_bytes` counter. Only the order grows with the mesh.
 
 use std::time::Instant;
 
@@ -105,6 +105,8 @@ pub struct CpuPt {
     sort_stats: SortStats,
     /// Use the f32 fast path of the integrator where there is one (default).
     fast: bool,
+    /// Tets of the order classified and drawn at a time ([`PART`]; smaller in tests).
+    part: usize,
 }
 
 /// The integrator, held once: its f32 fast path where it has one (and it is enabled), which
@@ -166,7 +168,6 @@ impl Scratch {
 /// does not grow with the mesh.
 const PART: usize = 1 << 20;
 
-
 impl CpuPt {
     /// Reports itself under a variant's registry name.
     pub fn named(mut self, name: &'static str) -> CpuPt {
@@ -186,6 +187,7 @@ impl CpuPt {
             sort: sorter,
             sort_stats: SortStats::default(),
             fast: true,
+            part: PART,
         })
     }
 
@@ -315,7 +317,7 @@ impl Renderer for CpuPt {
         let (mut drawn, mut pairs, mut fragments) = (0usize, 0usize, 0u64);
         let (mut draw_ms, mut bin_ms) = (0.0, 0.0);
         let mut bins = std::mem::take(&mut sc.bins);
-        for part in order.chunks(PART) {
+        for part in order.chunks(self.part) {
             let t0 = Instant::now();
             drawn += project::project(st, mesh, camera, part, fast.is_some(), &mut sc);
             project_ms += ms_since(t0);

@@ -20,26 +20,30 @@ use algorithms::optics::{composite_under, integrator, Segment};
 use algorithms::render::raycast::RayCaster;
 use algorithms::render::Renderer;
 use algorithms::tf::{TfPoint, TransferFunction};
+use tetbench_tests::test_util::vtk_enabled;
 
 /// Largest difference allowed per channel.
 const TOL: f64 = 1e-9;
 
-/// The oracle's Python, or `None` (with a line saying why) when the test is to be skipped.
+/// The oracle's Python (`TETBENCH_VTK_PYTHON`, as for the VTK peers), or `None` with a line
+/// saying that `test` was skipped. Fails under `TETBENCH_REQUIRE_VTK=1` when it is not set or
+/// has no mpmath.
 fn python(test: &str) -> Option<String> {
-    let required = std::env::var("TETBENCH_REQUIRE_VTK").is_ok_and(|v| v == "1");
-    let py = std::env::var("TETBENCH_VTK_PYTHON").ok().filter(|v| !v.is_empty());
-    let Some(py) = py else {
-        assert!(!required, "{test}: TETBENCH_VTK_PYTHON is not set and TETBENCH_REQUIRE_VTK=1");
-        eprintln!("{test}: TETBENCH_VTK_PYTHON not set, skipped");
+    if !vtk_enabled(test) {
         return None;
-    };
+    }
+    let py = std::env::var("TETBENCH_VTK_PYTHON").unwrap();
     let ok = Command::new(&py)
         .args(["-c", "import mpmath, numpy"])
         .status()
         .is_ok_and(|s| s.success());
     if !ok {
-        assert!(!required, "{test}: {py} has no mpmath and TETBENCH_REQUIRE_VTK=1");
-        eprintln!("{test}: {py} has no mpmath, skipped");
+        let required = std::env::var("TETBENCH_REQUIRE_VTK").is_ok_and(|v| v == "1");
+        assert!(
+            !required,
+            "{test}: {py} has no mpmath or numpy and TETBENCH_REQUIRE_VTK=1"
+        );
+        eprintln!("{test}: {py} has no mpmath or numpy, skipped");
         return None;
     }
     Some(py)
@@ -126,7 +130,12 @@ fn tf_json(tf: &TransferFunction) -> String {
     let pts: Vec<String> = tf
         .points
         .iter()
-        .map(|p| format!("[{:e},{:e},{:e},{:e},{:e}]", p.s, p.rgb[0], p.rgb[1], p.rgb[2], p.tau))
+        .map(|p| {
+            format!(
+                "[{:e},{:e},{:e},{:e},{:e}]",
+                p.s, p.rgb[0], p.rgb[1], p.rgb[2], p.tau
+            )
+        })
         .collect();
     format!("[{}]", pts.join(","))
 }
@@ -194,7 +203,11 @@ fn exact_rays_match_the_fifty_digit_model() {
                 format!("[{}]", s.join(","))
             })
             .collect();
-        let job = format!(r#"{{"tf":{},"rays":[{}]}}"#, tf_json(&tf), rays_json.join(","));
+        let job = format!(
+            r#"{{"tf":{},"rays":[{}]}}"#,
+            tf_json(&tf),
+            rays_json.join(",")
+        );
         let want = oracle(&py, &job);
         let (d, k) = worst(&got, &want);
         eprintln!("{n} TF points: largest difference {d:.3e}");

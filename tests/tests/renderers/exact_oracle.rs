@@ -147,7 +147,7 @@ fn worst(got: &[[f64; 4]], want: &[[f64; 4]]) -> (f64, usize) {
     for (k, (g, o)) in got.iter().zip(want).enumerate() {
         for c in 0..4 {
             let d = (g[c] - o[c]).abs();
-            if !(d <= w.0) {
+            if d > w.0 || d.is_nan() {
                 w = (d, k);
             }
         }

@@ -1,5 +1,7 @@
 //! Loading and the reference ray caster on `post` (falls back to the `post-like` analogue when
-//! the NASA files are absent). Run: `cargo bench -p tetbench --bench foundation`.
+//! the NASA files are absent), and the builds every run pays for once: generating `fighter`
+//! (1.4M tets), the pre-integration table and the Ψ table. Run:
+//! `cargo bench -p tetbench --bench foundation`.
 //!
 //! Besides criterion's timings it prints the counters that tell work from speed: cell steps per frame
 //! (for cell-steps/s) and the ray caster's measured heap bytes per tet.
@@ -8,6 +10,7 @@ use std::time::Duration;
 
 use algorithms::camera::{Camera, Projection, View};
 use algorithms::io::{self, LoadOptions};
+use algorithms::optics::{PreintTable, PsiTable};
 use algorithms::render::{self, RenderOptions};
 use algorithms::util::alloc::{self, CountingAlloc};
 use algorithms::{Mesh, TransferFunction};
@@ -42,6 +45,28 @@ fn load(c: &mut Criterion) {
         });
         g.finish();
     }
+}
+
+fn build(c: &mut Criterion) {
+    let mut g = c.benchmark_group("build");
+    g.sample_size(10).measurement_time(Duration::from_secs(20));
+    let m = datasets_gen::generate("fighter", None, 0).unwrap();
+    println!(
+        "fighter: {} tets, {} vertices ({} threads)",
+        m.num_tets(),
+        m.num_vertices(),
+        rayon::current_num_threads()
+    );
+    drop(m);
+    g.bench_function("generate-fighter", |b| {
+        b.iter(|| datasets_gen::generate("fighter", None, 0).unwrap())
+    });
+    let tf = TransferFunction::preset("default").unwrap();
+    g.bench_function("preint-table-default-tf", |b| {
+        b.iter(|| PreintTable::new(&tf))
+    });
+    g.bench_function("psi-table-512", |b| b.iter(|| PsiTable::new(512)));
+    g.finish();
 }
 
 fn raycast(c: &mut Criterion) {
@@ -83,5 +108,5 @@ fn raycast(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, load, raycast);
+criterion_group!(benches, load, build, raycast);
 criterion_main!(benches);

@@ -703,36 +703,22 @@ fn preint_matches_exact() {
 }
 
 #[test]
-fn preint_build_time_and_l_axis() {
+fn preint_l_axis_and_build() {
     for x in [0.0, 0.1, 0.5, 0.9, 1.0] {
         let l = PreintTable::coord_to_l(x);
         assert!((PreintTable::l_to_coord(l) - x).abs() < 1e-12);
     }
     assert_eq!(PreintTable::coord_to_l(0.0), 0.0);
     assert_eq!(PreintTable::coord_to_l(1.0), 1.0);
+    // The parallel build gives the same table as one thread, and every entry is finite.
     let tf = TransferFunction::preset("default").unwrap();
-    let _ = PreintTable::with_size(&tf, 8, 4); // warm the thread pool
-    let t0 = std::time::Instant::now();
     let t = PreintTable::new(&tf);
-    let dt = t0.elapsed().as_secs_f64();
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(1)
         .build()
         .unwrap();
-    let t1 = std::time::Instant::now();
     let t_one = pool.install(|| PreintTable::new(&tf));
-    let dt1 = t1.elapsed().as_secs_f64();
     assert_eq!(t_one.data(), t.data());
-    let t2 = std::time::Instant::now();
-    let _ = PsiTable::new(512);
-    let dt2 = t2.elapsed().as_secs_f64();
-    println!(
-        "PreintTable 128x128x64 (default TF) built in {:.1} ms ({} threads), {:.1} ms on 1 thread; PsiTable 512^2 in {:.1} ms",
-        dt * 1e3,
-        rayon::current_num_threads(),
-        dt1 * 1e3,
-        dt2 * 1e3
-    );
     assert!(t.data().iter().all(|x| x.is_finite()));
     // s range covers points beyond [0, 1].
     let wide = tf_of(vec![pt(-0.5, [1.0; 3], 1.0), pt(2.0, [0.0; 3], 3.0)]);

@@ -1,5 +1,7 @@
-//! `cpu-pt`: projected tetrahedra on the CPU (Shirley & Tuchman 1990, with PTINT's
-//! classification, Maximo et al. 2008, and HAPT's per-fragment integration, Maximo et al. 2010).
+//! `cpu-pt`: projected tetrahedra on the CPU (Shirley & Tuchman 1990, with the classification of
+//! PTINT — Marroquim, Maximo, Farias & Esperança, "GPU-Based Cell Projection for Interactive
+//! Volume Rendering", SIBGRAPI 2006 — and HAPT's per-fragment integration, Maximo, Marroquim &
+//! Farias 2010).
 //!
 //! Per frame:
 //! 1. **sort** — the visibility order, back to front (farthest first), while the rest of the

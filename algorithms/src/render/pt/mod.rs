@@ -8,11 +8,11 @@
 //! never occur), every fan tiles its silhouette exactly, and two tets sharing a vertex snap it
 //! identically (no cracks between cells).
 //!
-//! **The four tests** (PTINT, Maximo et al. 2008, Fig. 3) on the projected vertices v0..v3:
-//! `t1 = (v1−v0)×(v2−v0)`, `t2 = (v1−v0)×(v3−v0)`, `t3 = (v2−v0)×(v3−v0)`,
-//! `t4 = (v1−v2)×(v1−v3)`, i.e. the orientations o(0,1,2), o(0,1,3), o(0,2,3), o(1,2,3) of the
-//! four triangles of the tet's vertices. Each is −, 0 or + (PTINT eq. 3: 0, 1, 2) and the table
-//! index is `Σ (sign(t_i) + 1)·3^(i−1)` (t1 least significant).
+//! **The four tests** (PTINT: Marroquim, Maximo, Farias & Esperança 2006, Fig. 3) on the
+//! projected vertices v0..v3: `t1 = (v1−v0)×(v2−v0)`, `t2 = (v1−v0)×(v3−v0)`,
+//! `t3 = (v2−v0)×(v3−v0)`, `t4 = (v1−v2)×(v1−v3)`, i.e. the orientations o(0,1,2), o(0,1,3),
+//! o(0,2,3), o(1,2,3) of the four triangles of the tet's vertices. Each is −, 0 or + (PTINT
+//! eq. 3: 0, 1, 2) and the table index is `Σ (sign(t_i) + 1)·3^(i−1)` (t1 least significant).
 //!
 //! **The Radon point.** With `w = (t4, −t3, t2, −t1)` the four points satisfy the affine
 //! dependency `Σ w_k·(1, v_k) = 0` (Laplace expansion of a 4×4 determinant with a repeated

@@ -16,6 +16,7 @@
 //! (`"ok": false`) fails the request and keeps the process.
 
 pub mod decl;
+mod private_dir;
 pub mod process;
 pub mod protocol;
 

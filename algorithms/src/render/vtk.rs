@@ -17,7 +17,7 @@ use std::time::Duration;
 use super::peer::{Launch, PeerFamily, PeerParam, PeerRenderer, PeerSpec};
 use super::{Family, RenderOptions, Renderer, RendererInfo};
 use crate::error::{Error, Result};
-use crate::plugin::ParamInfo;
+use crate::plugin::{ParamInfo, Params};
 
 /// The environment variable naming a Python with `vtk` and `numpy`.
 pub const PYTHON_VAR: &str = "TETBENCH_VTK_PYTHON";
@@ -187,13 +187,10 @@ pub fn spec_by_name(name: &str) -> Option<Result<PeerSpec>> {
 }
 
 fn make(info: &RendererInfo, mapper: &str, o: &RenderOptions) -> Result<Box<dyn Renderer>> {
-    for (k, v) in &o.params {
-        if k == "grid" && v != "vtk" && v != "aligned" {
-            return Err(Error::Input(format!(
-                "{}: parameter grid={v}: expected vtk or aligned",
-                info.name
-            )));
-        }
+    let p = Params::new(info.name, info.params, &o.params)?;
+    // `vtk-pt` takes no `grid`; the ray-cast and ZSweep mappers do.
+    if info.params.iter().any(|q| q.name == "grid") {
+        p.choice("grid", &[("vtk", ()), ("aligned", ())])?;
     }
     // Checked here, so that a command or an experiment naming a VTK peer fails before any work.
     Ok(Box::new(PeerRenderer::new(spec(info, mapper)?, o)?))
@@ -216,7 +213,7 @@ mod tests {
             }
         };
         assert!(bad("vtk-pt", "grid", "aligned").contains("unknown parameter 'grid'"));
-        assert!(bad("vtk-raycast", "grid", "fine").contains("expected vtk or aligned"));
+        assert!(bad("vtk-raycast", "grid", "fine").contains("grid=fine: expected one of vtk, aligned"));
         assert!(bad("vtk-raycast", "isd", "1").contains("unknown parameter 'isd'"));
     }
 }

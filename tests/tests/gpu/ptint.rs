@@ -1,6 +1,6 @@
 //! `ptint` (two-pass GPU projected tetrahedra) against `cpu-pt` with the same sort and
 //! integrator: RMSE ≤ 1e-3 at 128² on `blunt` and on hard cases, ortho and perspective; every
-//! degenerate hard case renders finite (GPU issue, "Done when"). Each test needs an adapter:
+//! degenerate hard case renders finite. Each test needs an adapter:
 //! without one it prints SKIPPED, or fails under `TETBENCH_REQUIRE_GPU=1`.
 
 use algorithms::camera::{Camera, Projection, View};

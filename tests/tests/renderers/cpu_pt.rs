@@ -1,7 +1,7 @@
 //! cpu-pt on every generated mesh (hard cases included): finite pixels with every sort, and on
 //! the meshes where the visibility order is exact (convex, acyclic), agreement with the
 //! reference: no cracks along the class 3/4 projections of an axis-aligned grid, no spikes on
-//! slivers (CPU PT issue, "Done when").
+//! slivers.
 
 use algorithms::camera::{Camera, Projection, View};
 use algorithms::metrics::compare;

@@ -128,7 +128,7 @@ fn nasa_grids_have_no_holes() {
     }
 }
 
-/// The ≥ 100-view check of the issue (ignored: minutes in release).
+/// The ≥ 100-view check (ignored: minutes in release).
 #[test]
 #[ignore]
 fn full_check() {

@@ -2,9 +2,9 @@
 //! `mpvonc` does not: the per-pixel boundary order across empty space makes
 //! the projected-tetrahedra image visibility-exact.
 //!
-//! The `#[ignore]`d test is the measurement (50 Fibonacci views at 128² on blunt, post,
+//! The `#[ignore]`d test is the measurement (50 Fibonacci views at 128² on blunt, post,
 //! comb, torus, shell, hard-mpvonc, xmpvo beside mpvonc):
-//! `cargo test --release -p tetbench-tests --test xmpvo -- --ignored --nocapture`.
+//! `cargo test --release -p tetbench-tests --test sorts xmpvo -- --ignored --nocapture`.
 
 use algorithms::camera::{fibonacci_views, Camera, Projection, View};
 use algorithms::image::Image;
@@ -76,7 +76,7 @@ fn worst(
     (out, holes)
 }
 
-/// The tolerance.
+/// The tolerance against the reference order's image.
 const RMSE: f64 = 1e-5;
 const MAX_ABS: f64 = 2e-3;
 
@@ -132,7 +132,7 @@ fn xmpvo_matches_the_reference_in_perspective() {
             "persp {view:?}: rmse {:.2e} max_abs {:.2e}",
             e.rmse, e.max_abs
         );
-        // The bound. Before cpu-pt took segments from the unsnapped faces its
+        // The bound. Before cpu-pt took segments from the unsnapped faces its
         // perspective interpolation left ~1e-5 RMSE here (cc6 at these views: 1.1e-5 with
         // either order) and the bound was doubled; now 3-4e-8.
         assert!(
@@ -198,7 +198,7 @@ fn near_edge_on_faces_keep_their_thickness() {
     );
 }
 
-/// The "done when": 50 Fibonacci views at 128², worst per mesh, xmpvo beside mpvonc.
+/// The full measurement: 50 Fibonacci views at 128², worst per mesh, xmpvo beside mpvonc.
 #[test]
 #[ignore]
 fn done_when_50_views_at_128() {

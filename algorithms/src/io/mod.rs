@@ -69,8 +69,9 @@ pub const SHORT_NAMES: [(&str, &str, &str); 3] = [
     ("comb", "combxyz.bin", "density"),
 ];
 
-/// Where the NASA grids are looked up: `$TETBENCH_DATA`, else `../shared/datasets` beside the
-/// checkout (found from the current directory or the executable's location).
+/// Where the NASA grids are looked up: `$TETBENCH_DATA`, else every `shared/datasets` folder in
+/// a folder above the current directory, the executable or this crate: `../shared/datasets`
+/// beside the checkout, however deep the checkout sits below it.
 pub fn data_dirs() -> Vec<PathBuf> {
     let mut dirs = Vec::new();
     if let Some(d) = std::env::var_os("TETBENCH_DATA") {
@@ -87,13 +88,8 @@ pub fn data_dirs() -> Vec<PathBuf> {
     for s in starts {
         for anc in s.ancestors() {
             let cand = anc.join("shared").join("datasets");
-            if anc.join("Cargo.toml").exists() || cand.is_dir() {
-                if let Some(parent) = anc.parent() {
-                    let beside = parent.join("shared").join("datasets");
-                    if beside.is_dir() && !dirs.contains(&beside) {
-                        dirs.push(beside);
-                    }
-                }
+            if cand.is_dir() && !dirs.contains(&cand) {
+                dirs.push(cand);
             }
         }
     }

@@ -137,7 +137,7 @@ pub fn keep_image(
         .to_string();
     let to = d.join(&file);
     if !to.exists() {
-        let tmp = d.join(format!(".{file}.tmp{}", std::process::id()));
+        let tmp = algorithms::io::files::temp_name(&to, None);
         std::fs::copy(yardstick, &tmp)
             .and_then(|_| std::fs::rename(&tmp, &to))
             .map_err(|e| {

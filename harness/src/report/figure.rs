@@ -383,9 +383,9 @@ fn atomic_draw(
     path: &Path,
     draw: impl FnOnce(&Path) -> std::result::Result<(), Box<dyn std::error::Error>>,
 ) -> Result<()> {
-    let name = path.file_name().unwrap_or_default().to_string_lossy();
+    // The extension kept last: the plotting backend picks the format by it.
     let ext = path.extension().unwrap_or_default().to_string_lossy();
-    let tmp = path.with_file_name(format!(".{name}.tmp{}.{ext}", std::process::id()));
+    let tmp = algorithms::io::files::temp_name(path, Some(&ext));
     let r = draw(&tmp)
         .map_err(|e| Error::Io(format!("{}: {e}", path.display())))
         .and_then(|_| std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e)));

@@ -307,8 +307,9 @@ pub fn counters(reply: &Value) -> Result<Vec<(String, f64)>> {
 pub fn read_image(path: &Path, w: u32, h: u32) -> Result<crate::image::Image> {
     use std::io::Read;
     let want = w as u64 * h as u64 * 16;
-    let mut f = std::fs::File::open(path)
-        .map_err(|e| Error::Input(format!("no image ({}: {e})", path.display())))?;
+    // A regular file only: a pipe left in its place must not block the frame past its timeout.
+    let mut f =
+        crate::io::files::open_input(path).map_err(|e| Error::Input(format!("no image ({e})")))?;
     let len = f.metadata().map_err(|e| Error::io(path, e))?.len();
     if len != want {
         return Err(Error::Input(format!(

@@ -167,6 +167,9 @@ fn names_and_defaults() {
         "{e}"
     );
     assert!(generate("cc5", Some(0), 0).is_err());
+    // The bound is checked before anything is built: one past it is refused at once.
+    let e = generate("brain", Some(datasets_gen::MAX_TETS + 1), 0).unwrap_err();
+    assert!(matches!(e, algorithms::Error::Input(_)), "{e}");
 }
 
 #[test]

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""A peer that misbehaves on purpose, for harness/tests/peers.rs (plain Python, no numpy).
+"""A peer that misbehaves on purpose, for harness/tests/harness/peers.rs (plain Python, no numpy).
 
 Usage: fault_peer.py MODE TAG [STATE_DIR], or with FAULT_MODE, FAULT_TAG (and FAULT_STATE) in
 the environment (as a stand-in for TETBENCH_VTK_PYTHON, whose arguments it then ignores). TAG

@@ -16,6 +16,8 @@ use std::process::{Child, Command, Output, Stdio};
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
+use crate::test_util::{self, Csv};
+
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
 }
@@ -25,7 +27,7 @@ fn examples() -> PathBuf {
 }
 
 fn fault_peer() -> PathBuf {
-    root().join("harness/tests/peers/fault_peer.py")
+    root().join("harness/tests/harness/fault_peer.py")
 }
 
 /// A PATH on which `python3` has numpy (the example peers run `python3`).
@@ -89,15 +91,15 @@ impl Drop for TmpDir {
     }
 }
 
+/// A fresh directory with a `tmp/` for the peers' private directories.
 fn tmpdir(tag: &str) -> TmpDir {
-    let d = std::env::temp_dir().join(format!("tetbench-peers-test-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
+    let d = test_util::tmpdir(&format!("peers-{tag}"));
     std::fs::create_dir_all(d.join("tmp")).unwrap();
     TmpDir(d)
 }
 
 fn tetbench(dir: &Path) -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_tetbench"));
+    let mut c = test_util::command();
     c.env("PATH", path_with_numpy())
         .env("TMPDIR", dir.join("tmp"))
         .env_remove("TETBENCH_PEERS")
@@ -290,12 +292,11 @@ repeats = 2
         peers,
     ]));
     assert!(o.status.success(), "{}", text(&o.stderr));
-    let mut rdr = csv::Reader::from_path(out.join("results.csv")).unwrap();
-    let head = rdr.headers().unwrap().clone();
-    let col = |n: &str| head.iter().position(|h| h == n).unwrap();
-    let rows: Vec<csv::StringRecord> = rdr.records().map(|r| r.unwrap()).collect();
+    let table = Csv::read(&out.join("results.csv"));
+    let col = |n: &str| table.col(n);
+    let rows = &table.rows;
     assert_eq!(rows.len(), 6);
-    for r in &rows {
+    for r in rows {
         let num = |n: &str| r[col(n)].parse::<f64>().unwrap();
         assert!(r[col("note")].is_empty(), "{r:?}");
         assert!(
@@ -650,14 +651,13 @@ fn faults_cost_one_row_each_and_no_process_outlives_the_bench() {
     let err = text(&o.stderr);
     assert_eq!(o.status.code(), Some(3), "{err}");
     assert!(!err.contains("panicked"), "{err}");
-    let mut rdr = csv::Reader::from_path(out.join("results.csv")).unwrap();
-    let head = rdr.headers().unwrap().clone();
-    let col = |n: &str| head.iter().position(|h| h == n).unwrap();
-    let rows: Vec<csv::StringRecord> = rdr.records().map(|r| r.unwrap()).collect();
+    let table = Csv::read(&out.join("results.csv"));
+    let col = |n: &str| table.col(n);
+    let rows = &table.rows;
     assert_eq!(rows.len(), 2 * modes.len(), "{rows:?}");
     let note = |m: &str, view: &str| -> String {
         rows.iter()
-            .find(|r| &r[col("renderer")] == m && &r[col("view_id")] == view)
+            .find(|r| r[col("renderer")] == m && r[col("view_id")] == view)
             .unwrap_or_else(|| panic!("no row {m} {view}"))[col("note")]
         .to_string()
     };

@@ -1,19 +1,14 @@
 //! `tetbench bench` and `plot` end to end on tiny experiments, and the reproduce table writer.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
+use std::process::Output;
 
-fn tetbench(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tetbench"))
-        .args(args)
-        .output()
-        .expect("run tetbench")
-}
+use crate::test_util::{command, tetbench, tmpdir, Csv};
 
 /// `tetbench bench CFG --out OUT --no-plots` with no VTK Python configured (VTK variants are
 /// then unavailable).
 fn bench_without_vtk(cfg: &Path, out: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tetbench"))
+    command()
         .args([
             "bench",
             cfg.to_str().unwrap(),
@@ -24,13 +19,6 @@ fn bench_without_vtk(cfg: &Path, out: &Path) -> Output {
         .env_remove("TETBENCH_VTK_PYTHON")
         .output()
         .expect("run tetbench")
-}
-
-fn tmpdir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("tetbench-bench-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
 }
 
 fn stderr_lines(o: &Output) -> Vec<String> {
@@ -85,16 +73,6 @@ const COLUMNS: [&str; 30] = [
     "avg_err_pct",
 ];
 
-fn read_csv(p: &Path) -> (Vec<String>, Vec<Vec<String>>) {
-    let mut r = csv::Reader::from_path(p).unwrap();
-    let head: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
-    let rows = r
-        .records()
-        .map(|x| x.unwrap().iter().map(String::from).collect())
-        .collect();
-    (head, rows)
-}
-
 /// The images in the reference cache (each has its checksum file beside it).
 fn count_cache(dir: &Path) -> usize {
     std::fs::read_dir(dir.join(".cache"))
@@ -127,7 +105,7 @@ fn tiny_bench_writes_rows_caches_references_and_plots() {
         "{stdout}"
     );
 
-    let (head, rows) = read_csv(&out.join("results.csv"));
+    let Csv { head, rows } = Csv::read(&out.join("results.csv"));
     for c in COLUMNS {
         assert!(
             head.iter().any(|h| h == c),
@@ -221,7 +199,7 @@ views = { rotate = { frames = 3, axis = "y" } }
         "--no-plots",
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let (head, rows) = read_csv(&out.join("results.csv"));
+    let Csv { head, rows } = Csv::read(&out.join("results.csv"));
     assert_eq!(rows.len(), 3);
     let az = head.iter().position(|h| h == "azimuth").unwrap();
     let az: Vec<f64> = rows.iter().map(|r| r[az].parse().unwrap()).collect();
@@ -266,7 +244,7 @@ named = ["0,0"]
         (o, out)
     };
     let (o, out) = run(true);
-    let (head, rows) = read_csv(&out.join("results.csv"));
+    let Csv { head, rows } = Csv::read(&out.join("results.csv"));
     assert_eq!(rows.len(), 2, "{}", String::from_utf8_lossy(&o.stderr));
     let col = |n: &str| head.iter().position(|h| h == n).unwrap();
     let vtk = rows
@@ -402,7 +380,7 @@ named = ["30,20"]
         "--no-plots",
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let (head, rows) = read_csv(&out.join("results.csv"));
+    let Csv { head, rows } = Csv::read(&out.join("results.csv"));
     let col = |name: &str| head.iter().position(|h| h == name).unwrap();
     let slab = rows
         .iter()
@@ -444,14 +422,17 @@ named = ["0,0", "90,30"]
     let out = d.join("out");
     let o = bench_without_vtk(&cfg, &out);
     // (The exit status says that rows failed: vtk-pt's, below.)
-    let (head, rows) = read_csv(&out.join("results.csv"));
+    let Csv { head, rows } = Csv::read(&out.join("results.csv"));
     assert_eq!(rows.len(), 6, "{}", String::from_utf8_lossy(&o.stderr));
     let col = |n: &str| head.iter().position(|h| h == n).unwrap();
     for r in &rows {
         let failed = r[col("renderer")] == "vtk-pt";
         assert_eq!(r[col("total_ms")] == "NaN", failed, "{r:?}");
     }
-    let (ohead, order) = read_csv(&out.join("order.csv"));
+    let Csv {
+        head: ohead,
+        rows: order,
+    } = Csv::read(&out.join("order.csv"));
     assert_eq!(
         ohead,
         [
@@ -507,7 +488,7 @@ fn bytes_per_tet_do_not_depend_on_the_order_of_the_variants() {
         let out = d.join(tag);
         let o = bench_without_vtk(&cfg, &out);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let (head, rows) = read_csv(&out.join("results.csv"));
+        let Csv { head, rows } = Csv::read(&out.join("results.csv"));
         let col = |n: &str| head.iter().position(|h| h == n).unwrap();
         let mut bytes: Vec<(String, f64)> = rows
             .iter()

@@ -4,23 +4,11 @@
 //! the VTK venv is configured (`TETBENCH_VTK_PYTHON`), the same counts through VTK's readers.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 
 use tetbench::meshes::{load_mesh, MeshSpec};
 
-fn tetbench(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tetbench"))
-        .args(args)
-        .output()
-        .expect("run tetbench")
-}
-
-fn tmpdir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("tetbench-convert-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
+use crate::test_util::{tetbench, tmpdir};
 
 /// `tetbench info --json` of a mesh, without its timing.
 fn info(mesh: &str) -> serde_json::Map<String, serde_json::Value> {

@@ -3,31 +3,10 @@
 //! finished results are never destroyed silently, bad shard input gets one line.
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
 use std::time::{Duration, Instant};
 
-fn tetbench(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tetbench"))
-        .args(args)
-        .output()
-        .expect("run tetbench")
-}
-
-fn tmpdir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("tetbench-sweep-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn err_line(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr)
-        .lines()
-        .filter(|l| l.starts_with("tetbench:"))
-        .collect::<Vec<_>>()
-        .join("\n")
-}
+use crate::test_util::{command, err_lines, s, tetbench, tmpdir, write_exp, Csv};
 
 const TINY: &str = r#"
 name = "tiny-sweep"
@@ -40,41 +19,14 @@ warmup = 0
 named = ["0,0", "90,30", "45,10"]
 "#;
 
-fn write_exp(d: &Path, text: &str) -> PathBuf {
-    let p = d.join("exp.toml");
-    std::fs::write(&p, text).unwrap();
-    p
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
 /// key -> (rmse, whole record) of a results.csv.
 fn rows(p: &Path) -> BTreeMap<String, (f64, Vec<String>)> {
-    let mut r = csv::Reader::from_path(p).unwrap();
-    let h: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
-    let col = |n: &str| h.iter().position(|x| x == n).unwrap();
-    let (ds, var, proj, w, hh, view, rmse) = (
-        col("dataset"),
-        col("variant"),
-        col("projection"),
-        col("width"),
-        col("height"),
-        col("view_id"),
-        col("rmse"),
-    );
-    let mut m = BTreeMap::new();
-    for rec in r.records() {
-        let rec: Vec<String> = rec.unwrap().iter().map(String::from).collect();
-        let key = format!(
-            "{}|{}|{}|{}x{}|{}",
-            rec[ds], rec[var], rec[proj], rec[w], rec[hh], rec[view]
-        );
-        let e: f64 = rec[rmse].parse().unwrap_or(f64::NAN);
-        assert!(m.insert(key.clone(), (e, rec)).is_none(), "doubled {key}");
-    }
-    m
+    let t = Csv::read(p);
+    let rmse = t.col("rmse");
+    t.by_key()
+        .into_iter()
+        .map(|(key, rec)| (key, (rec[rmse].parse().unwrap_or(f64::NAN), rec)))
+        .collect()
 }
 
 fn same_rows(a: &Path, b: &Path) {
@@ -98,10 +50,10 @@ fn same_rows(a: &Path, b: &Path) {
 #[test]
 fn shards_merged_equal_the_unsharded_run() {
     let d = tmpdir("shards");
-    let exp = write_exp(&d, TINY);
+    let exp = write_exp(&d, "exp.toml", TINY);
     let full = d.join("full");
     let o = tetbench(&["bench", s(&exp), "--out", s(&full), "--no-plots"]);
-    assert!(o.status.success(), "{}", err_line(&o));
+    assert!(o.status.success(), "{}", err_lines(&o));
     let mut dirs = Vec::new();
     let mut counts = Vec::new();
     for i in 0..3 {
@@ -114,7 +66,7 @@ fn shards_merged_equal_the_unsharded_run() {
             "--shard",
             &format!("{i}/3"),
         ]);
-        assert!(o.status.success(), "{}", err_line(&o));
+        assert!(o.status.success(), "{}", err_lines(&o));
         counts.push(rows(&sd.join("results.csv")).len());
         dirs.push(sd);
     }
@@ -125,7 +77,7 @@ fn shards_merged_equal_the_unsharded_run() {
     let mut args = vec!["merge", "--out", s(&merged)];
     args.extend(dirs.iter().map(|p| s(p)));
     let o = tetbench(&args);
-    assert!(o.status.success(), "{}", err_line(&o));
+    assert!(o.status.success(), "{}", err_lines(&o));
     same_rows(&full.join("results.csv"), &merged.join("results.csv"));
     assert!(merged.join("speed_vs_error.svg").exists());
     // The merged sweep's figure (from the cells its shards kept) and its report.
@@ -136,7 +88,11 @@ fn shards_merged_equal_the_unsharded_run() {
     // A missing shard, a doubled one, and a shard of another experiment file are refused.
     let o = tetbench(&["merge", "--out", s(&d.join("m2")), s(&dirs[0]), s(&dirs[1])]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(err_line(&o).contains("2/3 is missing"), "{}", err_line(&o));
+    assert!(
+        err_lines(&o).contains("2/3 is missing"),
+        "{}",
+        err_lines(&o)
+    );
     let o = tetbench(&[
         "merge",
         "--out",
@@ -145,11 +101,11 @@ fn shards_merged_equal_the_unsharded_run() {
         s(&dirs[1]),
         s(&dirs[1]),
     ]);
-    assert!(err_line(&o).contains("given twice"), "{}", err_line(&o));
-    let other = write_exp(&d, &TINY.replace("tiny-sweep", "tiny-other"));
+    assert!(err_lines(&o).contains("given twice"), "{}", err_lines(&o));
+    let other = write_exp(&d, "exp.toml", &TINY.replace("tiny-sweep", "tiny-other"));
     let odd = d.join("odd");
     let o = tetbench(&["bench", s(&other), "--out", s(&odd), "--shard", "2/3"]);
-    assert!(o.status.success(), "{}", err_line(&o));
+    assert!(o.status.success(), "{}", err_lines(&o));
     let o = tetbench(&[
         "merge",
         "--out",
@@ -158,7 +114,7 @@ fn shards_merged_equal_the_unsharded_run() {
         s(&dirs[1]),
         s(&odd),
     ]);
-    let e = err_line(&o);
+    let e = err_lines(&o);
     assert_eq!(o.status.code(), Some(2), "{e}");
     assert!(
         e.contains(s(&odd)) && e.contains("experiment file") && e.lines().count() == 1,
@@ -168,9 +124,9 @@ fn shards_merged_equal_the_unsharded_run() {
     let o = tetbench(&["bench", s(&other), "--out", s(&full), "--resume"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(
-        err_line(&o).contains("another experiment"),
+        err_lines(&o).contains("another experiment"),
         "{}",
-        err_line(&o)
+        err_lines(&o)
     );
     let _ = std::fs::remove_dir_all(&d);
 }
@@ -178,10 +134,10 @@ fn shards_merged_equal_the_unsharded_run() {
 #[test]
 fn bad_shards_get_one_line() {
     let d = tmpdir("badshard");
-    let exp = write_exp(&d, TINY);
+    let exp = write_exp(&d, "exp.toml", TINY);
     for bad in ["3/3", "0/0", "a/b"] {
         let o = tetbench(&["bench", s(&exp), "--out", s(&d.join("x")), "--shard", bad]);
-        let e = err_line(&o);
+        let e = err_lines(&o);
         assert_eq!(o.status.code(), Some(2), "{bad}: {e}");
         assert!(e.contains(bad) && e.lines().count() == 1, "{bad}: {e}");
     }
@@ -193,6 +149,7 @@ fn a_panicking_renderer_costs_one_row() {
     let d = tmpdir("panic");
     let exp = write_exp(
         &d,
+        "exp.toml",
         &TINY
             .replace(
                 r#", { mesh = "torus", tets = 2000, label = "torus-2k" }"#,
@@ -201,24 +158,22 @@ fn a_panicking_renderer_costs_one_row() {
             .replace(r#"["24x24", "40x40"]"#, r#"["24x24"]"#),
     );
     let out = d.join("out");
-    let o = Command::new(env!("CARGO_BIN_EXE_tetbench"))
+    let o = command()
         .args(["bench", s(&exp), "--out", s(&out), "--no-plots"])
         .env("TETBENCH_TEST_PANIC", "raycast/average@named:1")
         .output()
         .unwrap();
     // Exit 3: the sweep finished, some rows failed.
-    assert_eq!(o.status.code(), Some(3), "{}", err_line(&o));
+    assert_eq!(o.status.code(), Some(3), "{}", err_lines(&o));
     assert!(
-        err_line(&o).contains("1 of 9 rows failed"),
+        err_lines(&o).contains("1 of 9 rows failed"),
         "{}",
-        err_line(&o)
+        err_lines(&o)
     );
     let r = rows(&out.join("results.csv"));
     assert_eq!(r.len(), 9);
-    let mut r2 = csv::Reader::from_path(out.join("results.csv")).unwrap();
-    let h = r2.headers().unwrap().clone();
-    let note = h.iter().position(|x| x == "note").unwrap();
-    let total = h.iter().position(|x| x == "total_ms").unwrap();
+    let head = Csv::read(&out.join("results.csv"));
+    let (note, total) = (head.col("note"), head.col("total_ms"));
     let failed: Vec<&Vec<String>> = r
         .values()
         .map(|x| &x.1)
@@ -239,14 +194,15 @@ fn killed_run_resumes_to_the_same_rows_remeasuring_none() {
     // Bigger images so that the run is still going when it is killed.
     let exp = write_exp(
         &d,
+        "exp.toml",
         &TINY.replace(r#"["24x24", "40x40"]"#, r#"["64x64", "96x96"]"#),
     );
     let full = d.join("full");
     let o = tetbench(&["bench", s(&exp), "--out", s(&full), "--no-plots"]);
-    assert!(o.status.success(), "{}", err_line(&o));
+    assert!(o.status.success(), "{}", err_lines(&o));
 
     let out = d.join("out");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_tetbench"))
+    let mut child = command()
         .args(["bench", s(&exp), "--out", s(&out), "--no-plots"])
         .stderr(std::process::Stdio::null())
         .spawn()
@@ -278,15 +234,19 @@ fn killed_run_resumes_to_the_same_rows_remeasuring_none() {
     let o = tetbench(&["bench", s(&exp), "--out", s(&out), "--no-plots"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(
-        err_line(&o).contains("--resume") && err_line(&o).contains("--force"),
+        err_lines(&o).contains("--resume") && err_lines(&o).contains("--force"),
         "{}",
-        err_line(&o)
+        err_lines(&o)
     );
     assert_eq!(std::fs::read_to_string(&csv).unwrap(), text);
 
     let o = tetbench(&["bench", s(&exp), "--out", s(&out), "--no-plots", "--resume"]);
-    assert!(o.status.success(), "{}", err_line(&o));
-    assert!(err_line(&o).contains("torn last line"), "{}", err_line(&o));
+    assert!(o.status.success(), "{}", err_lines(&o));
+    assert!(
+        err_lines(&o).contains("torn last line"),
+        "{}",
+        err_lines(&o)
+    );
     same_rows(&full.join("results.csv"), &csv);
     // The finished rows are the same lines, byte for byte: none was measured again.
     let after = std::fs::read_to_string(&csv).unwrap();
@@ -304,7 +264,7 @@ fn killed_run_resumes_to_the_same_rows_remeasuring_none() {
 #[test]
 fn a_second_run_into_one_out_is_refused_by_the_lock() {
     let d = tmpdir("lock");
-    let exp = write_exp(&d, TINY);
+    let exp = write_exp(&d, "exp.toml", TINY);
     let out = d.join("out");
     std::fs::create_dir_all(&out).unwrap();
     // A live run (this test, holding the lock) keeps others out.
@@ -312,9 +272,9 @@ fn a_second_run_into_one_out_is_refused_by_the_lock() {
     let o = tetbench(&["bench", s(&exp), "--out", s(&out), "--no-plots"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(
-        err_line(&o).contains("another tetbench run"),
+        err_lines(&o).contains("another tetbench run"),
         "{}",
-        err_line(&o)
+        err_lines(&o)
     );
     drop(lock);
     // A lock file left by a run that is gone, and its temporary files, are cleaned up.
@@ -326,7 +286,7 @@ fn a_second_run_into_one_out_is_refused_by_the_lock() {
     ));
     std::fs::write(&tmp, b"half").unwrap();
     let o = tetbench(&["bench", s(&exp), "--out", s(&out), "--no-plots", "--force"]);
-    assert!(o.status.success(), "{}", err_line(&o));
+    assert!(o.status.success(), "{}", err_lines(&o));
     assert!(!out.join(".lock").exists());
     assert!(!tmp.exists());
     let _ = std::fs::remove_dir_all(&d);
@@ -338,11 +298,19 @@ fn plot_on_an_empty_or_header_only_csv_says_nothing_to_plot() {
     std::fs::write(d.join("results.csv"), b"").unwrap();
     let o = tetbench(&["plot", s(&d)]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(err_line(&o).contains("nothing to plot"), "{}", err_line(&o));
+    assert!(
+        err_lines(&o).contains("nothing to plot"),
+        "{}",
+        err_lines(&o)
+    );
     std::fs::write(d.join("results.csv"), b"dataset,tets\n").unwrap();
     let o = tetbench(&["plot", s(&d)]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(err_line(&o).contains("nothing to plot"), "{}", err_line(&o));
+    assert!(
+        err_lines(&o).contains("nothing to plot"),
+        "{}",
+        err_lines(&o)
+    );
     let _ = std::fs::remove_dir_all(&d);
 }
 
@@ -353,7 +321,7 @@ fn plot_on_an_empty_or_header_only_csv_says_nothing_to_plot() {
 fn reproduce_shards_merge_to_the_unsharded_table_with_failed_rows_shown() {
     let d = tmpdir("reproduce");
     let run = |args: &[&str]| {
-        Command::new(env!("CARGO_BIN_EXE_tetbench"))
+        command()
             .args(["reproduce", "--quick", "--only", "ptint-fig8"])
             .args(args)
             .env("TETBENCH_TEST_PANIC", "raycast/partial@*")
@@ -367,19 +335,19 @@ fn reproduce_shards_merge_to_the_unsharded_table_with_failed_rows_shown() {
         d.join("merged"),
     );
     let o = run(&["--out", s(&whole)]);
-    assert_eq!(o.status.code(), Some(3), "{}", err_line(&o));
+    assert_eq!(o.status.code(), Some(3), "{}", err_lines(&o));
     for (i, dir) in [(0, &s0), (1, &s1)] {
         let shard = format!("{i}/2");
         let o = run(&["--shard", &shard, "--out", s(dir)]);
         // Shard 0 or 1 measures the raycast rows (and fails them): exit 3 there only.
-        assert!(matches!(o.status.code(), Some(0 | 3)), "{}", err_line(&o));
+        assert!(matches!(o.status.code(), Some(0 | 3)), "{}", err_lines(&o));
         assert!(
             !dir.join("ptint-fig8.md").exists(),
             "a shard writes raw rows, not tables"
         );
     }
     let o = run(&["--merge", s(&s0), s(&s1), "--out", s(&merged)]);
-    assert_eq!(o.status.code(), Some(3), "{}", err_line(&o));
+    assert_eq!(o.status.code(), Some(3), "{}", err_lines(&o));
     let raw = |dir: &Path| dir.join("raw/ptint-fig8/results.csv");
     same_rows(&raw(&whole), &raw(&merged));
     let table = |dir: &Path| std::fs::read_to_string(dir.join("ptint-fig8.md")).unwrap();
@@ -426,7 +394,7 @@ fn reproduce_slurm_prints_an_array_and_its_merge() {
         "--out",
         "/shared/out",
     ]);
-    assert!(o.status.success(), "{}", err_line(&o));
+    assert!(o.status.success(), "{}", err_lines(&o));
     let text = String::from_utf8(o.stdout).unwrap();
     assert!(text.contains("--array=0-2"), "{text}");
     assert!(text.contains("--shard $SLURM_ARRAY_TASK_ID/3"), "{text}");
@@ -436,7 +404,7 @@ fn reproduce_slurm_prints_an_array_and_its_merge() {
         "{text}"
     );
     assert_eq!(text.matches("[ $rc -eq 3 ] && rc=0").count(), 2, "{text}");
-    let mut sh = Command::new("bash")
+    let mut sh = std::process::Command::new("bash")
         .arg("-n")
         .stdin(std::process::Stdio::piped())
         .spawn()
@@ -446,5 +414,5 @@ fn reproduce_slurm_prints_an_array_and_its_merge() {
     assert!(sh.wait().unwrap().success(), "not valid shell:\n{text}");
     let o = tetbench(&["reproduce", "--slurm", "0"]);
     assert_eq!(o.status.code(), Some(2));
-    assert_eq!(err_line(&o).lines().count(), 1, "{}", err_line(&o));
+    assert_eq!(err_lines(&o).lines().count(), 1, "{}", err_lines(&o));
 }

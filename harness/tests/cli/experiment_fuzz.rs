@@ -1,7 +1,7 @@
 //! The experiment TOML against hostile input: counts are bounded with a message naming the
 //! key and the bound, and a proptest fuzzer checks that no text makes parsing and validation
 //! panic or answer with more than one line. CI runs the default few hundred cases; a long run:
-//! `PROPTEST_CASES=1000000 cargo test --release -p tetbench --test experiment_fuzz`.
+//! `PROPTEST_CASES=1000000 cargo test --release -p tetbench --test cli experiment_fuzz`.
 
 use std::path::Path;
 

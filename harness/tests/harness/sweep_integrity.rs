@@ -3,43 +3,8 @@
 //! the reference cache is used only where an entry is what it claims to be.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
-fn tetbench(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tetbench"))
-        .args(args)
-        .output()
-        .expect("run tetbench")
-}
-
-fn tmpdir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("tetbench-integrity-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-fn err_lines(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr)
-        .lines()
-        .filter(|l| l.starts_with("tetbench:"))
-        .collect::<Vec<_>>()
-        .join("\n")
-}
-
-/// Exit 2 with one `tetbench:` line containing every one of `want`.
-fn one_line_error(o: &Output, want: &[&str]) {
-    let e = err_lines(o);
-    assert_eq!(o.status.code(), Some(2), "{e}");
-    assert_eq!(e.lines().count(), 1, "{e}");
-    for w in want {
-        assert!(e.contains(w), "{w:?} not in {e:?}");
-    }
-}
+use crate::test_util::{command, err_lines, one_line_error, s, tetbench, tmpdir, write_exp, Csv};
 
 const SMALL: &str = r#"
 name = "small"
@@ -52,21 +17,14 @@ warmup = 0
 named = ["0,0", "90,30"]
 "#;
 
-fn write_exp(d: &Path, name: &str, text: &str) -> PathBuf {
-    let p = d.join(name);
-    std::fs::write(&p, text).unwrap();
-    p
-}
-
 /// (dataset, view_id) -> rmse of a results.csv.
 fn rmse_by_cell(csv: &Path) -> Vec<(String, String, String)> {
-    let mut r = csv::Reader::from_path(csv).unwrap();
-    let h = r.headers().unwrap().clone();
-    let col = |n: &str| h.iter().position(|x| x == n).unwrap();
-    let mut v: Vec<(String, String, String)> = r
-        .records()
+    let t = Csv::read(csv);
+    let col = |n: &str| t.col(n);
+    let mut v: Vec<(String, String, String)> = t
+        .rows
+        .iter()
         .map(|x| {
-            let x = x.unwrap();
             (
                 x[col("dataset")].to_string(),
                 x[col("view_id")].to_string(),
@@ -388,7 +346,7 @@ fn meta_txt_is_never_left_half_written() {
     assert!(o.status.success(), "{}", err_lines(&o));
     let meta = std::fs::read(out.join("meta.txt")).unwrap();
     assert!(meta.len() > 100);
-    let mut c = Command::new(env!("CARGO_BIN_EXE_tetbench"));
+    let mut c = command();
     c.args(["bench", s(&exp), "--out", s(&out), "--no-plots", "--resume"]);
     // SAFETY: signal and setrlimit only, between fork and exec (async-signal-safe).
     unsafe {

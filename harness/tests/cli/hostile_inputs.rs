@@ -6,12 +6,14 @@
 use std::ffi::CString;
 use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Output, Stdio};
 use std::time::{Duration, Instant};
+
+use crate::test_util::{command, one_line_error, s, tmpdir, Csv, TWO_TETS};
 
 /// Runs tetbench with a deadline: a run that blocks is killed and reported as such.
 fn run(args: &[&str], limit_as: Option<u64>) -> Output {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_tetbench"));
+    let mut c = command();
     c.args(args)
         .env("RAYON_NUM_THREADS", "2")
         .stdin(Stdio::null())
@@ -49,31 +51,8 @@ fn tetbench(args: &[&str]) -> Output {
     run(args, None)
 }
 
-fn tmpdir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("tetbench-hostile-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-/// Exit 2 with one `tetbench:` line on stderr containing every one of `want`.
-fn one_line_error(o: &Output, want: &[&str]) {
-    let err = stderr(o);
-    assert_eq!(o.status.code(), Some(2), "stderr: {err}");
-    let lines: Vec<&str> = err.lines().filter(|l| l.starts_with("tetbench:")).collect();
-    assert_eq!(lines.len(), 1, "expected one line, got: {err}");
-    for w in want {
-        assert!(lines[0].contains(w), "{w:?} not in {err:?}");
-    }
-    assert!(!err.contains("panicked"), "{err}");
 }
 
 fn mkfifo(p: &Path) {
@@ -86,8 +65,6 @@ fn mkfifo(p: &Path) {
         p.display()
     );
 }
-
-const TWO_TETS: &str = "5 2\n0 0 0 0.5\n1 0 0 1\n0 1 0 2\n0 0 1 3\n1 1 1 4\n0 1 2 3\n1 2 3 4\n";
 
 const SMALL: &str = r#"
 name = "small"
@@ -452,14 +429,13 @@ warmup = 0
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(3), "{err}");
     assert!(!out.join(".lock").exists());
-    let mut r = csv::Reader::from_path(out.join("results.csv")).unwrap();
-    let h = r.headers().unwrap().clone();
-    let col = |n: &str| h.iter().position(|x| x == n).unwrap();
-    let rows: Vec<csv::StringRecord> = r.records().map(|x| x.unwrap()).collect();
+    let table = Csv::read(&out.join("results.csv"));
+    let col = |n: &str| table.col(n);
+    let rows = &table.rows;
     assert_eq!(rows.len(), 4, "{err}");
-    for row in &rows {
-        let big = &row[col("width")] == "16384";
-        let measured = &row[col("total_ms")] != "NaN";
+    for row in rows {
+        let big = row[col("width")] == "16384";
+        let measured = row[col("total_ms")] != "NaN";
         assert_eq!(measured, !big, "{row:?}");
         if big {
             assert!(row[col("note")].contains("out of memory"), "{row:?}");

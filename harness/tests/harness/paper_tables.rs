@@ -7,31 +7,14 @@
 //! `papers::jbu`.)
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
+use std::process::Output;
 
-fn tmpdir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("tetbench-tables-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-fn err_lines(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr)
-        .lines()
-        .filter(|l| l.starts_with("tetbench:"))
-        .collect::<Vec<_>>()
-        .join("\n")
-}
+use crate::test_util::{command, err_lines, s, tmpdir, Csv};
 
 /// `reproduce --quick --only <id>` with `args`, the renderer cells `panic` names panicking.
 fn reproduce(id: &str, panic: &str, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tetbench"))
+    command()
         .args(["reproduce", "--quick", "--only", id])
         .args(args)
         .env("TETBENCH_TEST_PANIC", panic)
@@ -42,28 +25,16 @@ fn reproduce(id: &str, panic: &str, args: &[&str]) -> Output {
 /// key (dataset|variant|projection|size|view) -> (rmse, failed) of a raw results.csv, and its
 /// lines in file order.
 fn raw_rows(p: &Path) -> (BTreeMap<String, (String, bool)>, Vec<String>) {
-    let mut r = csv::Reader::from_path(p).unwrap();
-    let h: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
-    let col = |n: &str| h.iter().position(|x| x == n).unwrap();
-    let mut m = BTreeMap::new();
-    for rec in r.records() {
-        let rec = rec.unwrap();
-        let key = [
-            "dataset",
-            "variant",
-            "projection",
-            "width",
-            "height",
-            "view_id",
-        ]
-        .map(|c| rec[col(c)].to_string())
-        .join("|");
-        let failed = rec[col("total_ms")]
-            .parse::<f64>()
-            .map_or(true, f64::is_nan);
-        let prev = m.insert(key.clone(), (rec[col("rmse")].to_string(), failed));
-        assert!(prev.is_none(), "doubled {key}");
-    }
+    let t = Csv::read(p);
+    let (rmse, total) = (t.col("rmse"), t.col("total_ms"));
+    let m = t
+        .by_key()
+        .into_iter()
+        .map(|(key, rec)| {
+            let failed = rec[total].parse::<f64>().map_or(true, f64::is_nan);
+            (key, (rec[rmse].clone(), failed))
+        })
+        .collect();
     let lines = std::fs::read_to_string(p)
         .unwrap()
         .lines()

@@ -1,14 +1,9 @@
 //! The `tetbench` command line end to end: outputs of CONVENTIONS §8 and exit codes for bad input.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
-fn tetbench(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tetbench"))
-        .args(args)
-        .output()
-        .expect("run tetbench")
-}
+use crate::test_util::{command, tetbench, tmpdir, TWO_TETS};
 
 fn stdout(o: &Output) -> String {
     String::from_utf8_lossy(&o.stdout).into_owned()
@@ -25,15 +20,6 @@ fn field(out: &str, name: &str) -> String {
         .unwrap_or_else(|| panic!("no '{name}:' line in\n{out}"))
         .to_string()
 }
-
-fn tmpdir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("tetbench-cli-{tag}-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-/// Two unit tets sharing a face.
-const TWO_TETS: &str = "5 2\n0 0 0 0.5\n1 0 0 1\n0 1 0 2\n0 0 1 3\n1 1 1 4\n0 1 2 3\n1 2 3 4\n";
 
 /// Asserts exit status 2 and one line on stderr containing `want`.
 fn assert_user_error(o: &Output, want: &str) {
@@ -350,7 +336,7 @@ fn unknown_and_repeated_params_exit_2_for_every_renderer() {
 #[test]
 fn an_adapter_without_f32_blending_is_refused_by_name() {
     let gl = |args: &[&str]| {
-        Command::new(env!("CARGO_BIN_EXE_tetbench"))
+        command()
             .args(args)
             .env("WGPU_BACKEND", "gl")
             .env_remove("TETBENCH_ADAPTER")

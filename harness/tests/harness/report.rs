@@ -12,12 +12,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-fn tmpdir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("tetbench-report-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
+use crate::test_util::{command, tmpdir};
 
 fn chromium() -> Option<PathBuf> {
     ["chromium", "chromium-browser", "google-chrome"]
@@ -133,7 +128,7 @@ fn the_quick_report_loads_in_chromium_without_console_messages() {
     // One PTINT table (the exact reference as its yardstick) and one of the BCC paper (the
     // analytic ground truth as its yardstick), each with its figure; the ray caster with full
     // pre-integration panics in the figure's cell.
-    let o = Command::new(env!("CARGO_BIN_EXE_tetbench"))
+    let o = command()
         .args([
             "reproduce",
             "--quick",

@@ -511,13 +511,18 @@ fn per_pixel(
     Ok(img)
 }
 
-fn check_ortho(camera: &Camera) -> Result<()> {
-    if camera.projection != Projection::Ortho {
-        return Err(Error::Input(
-            "bcc ray casting: orthographic views only".to_string(),
-        ));
+impl Sampling<'_> {
+    /// The set-up both ray casters ([`raycast`], [`ground_truth`]) start with: the view must be
+    /// orthographic (their rays share one direction), and world lengths become optical ones
+    /// by the returned `1 / L`.
+    fn ortho_inv_l(&self, camera: &Camera) -> Result<f64> {
+        if camera.projection != Projection::Ortho {
+            return Err(Error::Input(
+                "bcc ray casting: orthographic views only".to_string(),
+            ));
+        }
+        Ok(1.0 / self.diag)
     }
-    Ok(())
 }
 
 /// Ray casts `vol` with `scheme` at the world step of `sampling` (`bil`: at the plane
@@ -528,13 +533,7 @@ pub fn raycast(
     camera: &Camera,
     sampling: Sampling<'_>,
 ) -> Result<Image> {
-    let Sampling {
-        map,
-        integ,
-        step,
-        diag,
-    } = sampling;
-    check_ortho(camera)?;
+    let inv_l = sampling.ortho_inv_l(camera)?;
     let (bbox, h, origin) = match (&vol, scheme) {
         (Volume::Cc(v), Scheme::Trilinear) => (v.bbox(), v.h, v.origin),
         (Volume::Bcc(v), s) if s != Scheme::Trilinear => (v.bbox(), v.h, v.origin),
@@ -555,7 +554,6 @@ pub fn raycast(
         sgn(g[(c + 1) % 3] * g[c].signum()),
         sgn(g[(c + 2) % 3] * g[c].signum()),
     ];
-    let inv_l = 1.0 / diag;
     per_pixel(camera, &bbox, |samples, o, dir, t0, t1| {
         let lat = |t: f64| ((o + t * dir - origin) / h).to_array();
         let value = |t: f64| -> f64 {
@@ -591,17 +589,17 @@ pub fn raycast(
                 let x = lat(t);
                 if let Volume::Bcc(v) = &vol {
                     let s = v.plane_bilinear(c, k, x[(c + 1) % 3], x[(c + 2) % 3]);
-                    samples.push((t, map.s(s)));
+                    samples.push((t, sampling.map.s(s)));
                 }
             }
         } else {
-            let m = ((t1 - t0) / step).ceil().max(1.0) as usize;
+            let m = ((t1 - t0) / sampling.step).ceil().max(1.0) as usize;
             for q in 0..=m {
-                let t = (t0 + q as f64 * step).min(t1);
-                samples.push((t, map.s(value(t))));
+                let t = (t0 + q as f64 * sampling.step).min(t1);
+                samples.push((t, sampling.map.s(value(t))));
             }
         }
-        integrate(samples, integ, inv_l)
+        integrate(samples, sampling.integ, inv_l)
     })
 }
 
@@ -614,16 +612,9 @@ pub fn ground_truth(
     camera: &Camera,
     sampling: Sampling<'_>,
 ) -> Result<Image> {
-    let Sampling {
-        map,
-        integ,
-        step,
-        diag,
-    } = sampling;
-    check_ortho(camera)?;
-    let inv_l = 1.0 / diag;
+    let inv_l = sampling.ortho_inv_l(camera)?;
     // A hair larger, so that points on the box face count.
-    let pad = 1e-9 * diag;
+    let pad = 1e-9 * sampling.diag;
     let big = Aabb {
         min: bbox.min - pad,
         max: bbox.max + pad,
@@ -631,15 +622,15 @@ pub fn ground_truth(
     per_pixel(camera, &big, |run, o, dir, t0, t1| {
         let at = |t: f64| o + t * dir;
         let mut acc = Segment::default();
-        let m = ((t1 - t0) / step).ceil().max(1.0) as usize;
+        let m = ((t1 - t0) / sampling.step).ceil().max(1.0) as usize;
         let mut prev_t = t0;
         let mut prev_in = inside(at(t0));
         run.clear();
         if prev_in {
-            run.push((t0, map.s(field(at(t0)))));
+            run.push((t0, sampling.map.s(field(at(t0)))));
         }
         let flush = |run: &mut Vec<(f64, f64)>, acc: &mut Segment| {
-            let seg = integrate(run, integ, inv_l);
+            let seg = integrate(run, sampling.integ, inv_l);
             let s = Segment {
                 rgb: [seg[0] as f64, seg[1] as f64, seg[2] as f64],
                 alpha: seg[3] as f64,
@@ -648,12 +639,12 @@ pub fn ground_truth(
             run.clear();
         };
         for q in 1..=m {
-            let t = (t0 + q as f64 * step).min(t1);
+            let t = (t0 + q as f64 * sampling.step).min(t1);
             let now_in = inside(at(t));
             if now_in != prev_in {
                 // Bisect the crossing.
                 let (mut a, mut b) = (prev_t, t);
-                while b - a > 1e-9 * step {
+                while b - a > 1e-9 * sampling.step {
                     let mid = 0.5 * (a + b);
                     if inside(at(mid)) == prev_in {
                         a = mid;
@@ -662,14 +653,14 @@ pub fn ground_truth(
                     }
                 }
                 if prev_in {
-                    run.push((a, map.s(field(at(a)))));
+                    run.push((a, sampling.map.s(field(at(a)))));
                     flush(run, &mut acc);
                 } else {
-                    run.push((b, map.s(field(at(b)))));
+                    run.push((b, sampling.map.s(field(at(b)))));
                 }
             }
             if now_in {
-                run.push((t, map.s(field(at(t)))));
+                run.push((t, sampling.map.s(field(at(t)))));
             }
             prev_t = t;
             prev_in = now_in;

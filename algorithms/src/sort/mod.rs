@@ -237,6 +237,26 @@ pub(crate) fn sort_desc_by_key(items: impl Iterator<Item = (u32, f32)>, out: &mu
     out.extend(v.iter().map(|&x| x as u32));
 }
 
+/// The sources of a visibility graph (the cells whose in-degree `indeg` is 0) into `sources`,
+/// farthest first by `key` (the [`KeyFn`] of a cell's centroid): the order in which the Kahn
+/// sorts (MPVONC, XMPVO) start each new run. Returns their number.
+pub(crate) fn seed_sources<D: Copy + Into<u32>>(
+    indeg: &[D],
+    key: impl Fn(usize) -> f32,
+    sources: &mut Vec<u32>,
+) -> usize {
+    sources.clear();
+    sort_desc_by_key(
+        indeg
+            .iter()
+            .enumerate()
+            .filter(|(_, &d)| d.into() == 0)
+            .map(|(t, _)| (t as u32, key(t))),
+        sources,
+    );
+    sources.len()
+}
+
 /// Checks that a sort was prepared for a mesh of this size.
 pub(crate) fn check_prepared(name: &str, prepared: usize, mesh: &Mesh) -> Result<()> {
     if prepared != mesh.num_tets() {

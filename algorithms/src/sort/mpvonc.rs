@@ -49,7 +49,7 @@
 //! exactly once.
 
 use super::{
-    centroids, check_prepared, f32x3, sort_desc_by_key, KeyFn, Sort, SortInfo, SortStats, Stall,
+    centroids, check_prepared, f32x3, seed_sources, KeyFn, Sort, SortInfo, SortStats, Stall,
 };
 use glam::DVec3;
 use crate::camera::{Camera, Projection};
@@ -205,17 +205,8 @@ impl Sort for Mpvonc {
 
         // 2. Sources, farthest first.
         let kf = KeyFn::for_camera(camera);
-        self.sources.clear();
         let cents = &self.centroids;
-        sort_desc_by_key(
-            self.indeg
-                .iter()
-                .enumerate()
-                .filter(|(_, &d)| d == 0)
-                .map(|(t, _)| (t as u32, kf.key(&cents[t]))),
-            &mut self.sources,
-        );
-        stats.sources = self.sources.len();
+        stats.sources = seed_sources(&self.indeg, |t| kf.key(&cents[t]), &mut self.sources);
 
         // 3. Kahn with a stack, one source at a time; cycle fallback at stalls.
         order.clear();

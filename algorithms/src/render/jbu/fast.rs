@@ -21,7 +21,7 @@
 use rayon::prelude::*;
 
 use super::filter::{axis, exp_neg, slopes, Axis, Filter, EXP_ONE};
-use super::filter::{bilinear4, G_FLAT, G_MATCH, W_MIN};
+use super::filter::{bilinear4, colour_consistent, G_FLAT, G_MATCH, W_MIN};
 use super::range::{range_d2, refine_equal};
 use crate::image::Image;
 
@@ -179,8 +179,9 @@ impl Filter<'_> {
                         }
                         wsum += wgt;
                     }
+                    let colour4 = std::array::from_fn(|m| &colour[q[m]]);
                     if edge && gd.iter().all(|&g| g < G_MATCH) {
-                        *o = bilinear4(std::array::from_fn(|m| &colour[q[m]]), &tw);
+                        *o = bilinear4(colour4, &tw);
                         continue;
                     }
                     let same = if wsum >= W_MIN {
@@ -200,27 +201,7 @@ impl Filter<'_> {
                         *o = same;
                         continue;
                     }
-                    // Colour consistency, as in the definition.
-                    let mut acc = [0.0f32; 4];
-                    let mut wsum = 0.0f32;
-                    for m in 0..4 {
-                        let cs = &colour[q[m]];
-                        let mut c2 = 0.0f32;
-                        for (v, mm) in cs.iter().zip(&same) {
-                            c2 += (v - mm) * (v - mm);
-                        }
-                        let g = gd[m].max(exp_neg(c2 * inv2c2));
-                        let wgt = tw[m] * g;
-                        for (a, v) in acc.iter_mut().zip(cs) {
-                            *a += wgt * v;
-                        }
-                        wsum += wgt;
-                    }
-                    *o = if wsum >= W_MIN {
-                        acc.map(|v| v / wsum)
-                    } else {
-                        same
-                    };
+                    *o = colour_consistent(colour4, &tw, &gd, same, inv2c2);
                 }
             });
     }

@@ -129,6 +129,42 @@ pub(super) fn bilinear4(colour: [&[f32; 4]; 4], tw: &[f32; 4]) -> [f32; 4] {
     acc.map(|v| v / ws)
 }
 
+/// The colour-consistency step of the edge-aware filter at a depth edge: a sample across the
+/// edge whose colour continues the pixel's side (a silhouette that fades out) is kept as
+/// bilinear keeps it. Each sample's weight is its bilinear weight `tw` times the larger of its
+/// range weight `gd` and the colour kernel `exp(−|I_q − same|² / 2σ_c²)` on its distance to
+/// `same`, the edge-aware result; where less than [`W_MIN`] of the weight is left, `same`.
+/// Samples in the order of [`bilinear4`].
+#[inline(always)]
+pub(super) fn colour_consistent(
+    colour: [&[f32; 4]; 4],
+    tw: &[f32; 4],
+    gd: &[f32; 4],
+    same: [f32; 4],
+    inv2c2: f32,
+) -> [f32; 4] {
+    let mut acc = [0.0f32; 4];
+    let mut wsum = 0.0f32;
+    for m in 0..4 {
+        let cs = colour[m];
+        let mut c2 = 0.0f32;
+        for (v, mm) in cs.iter().zip(&same) {
+            c2 += (v - mm) * (v - mm);
+        }
+        let g = gd[m].max(exp_neg(c2 * inv2c2));
+        let wgt = tw[m] * g;
+        for (a, v) in acc.iter_mut().zip(cs) {
+            *a += wgt * v;
+        }
+        wsum += wgt;
+    }
+    if wsum >= W_MIN {
+        acc.map(|v| v / wsum)
+    } else {
+        same
+    }
+}
+
 /// A low-res sample with its depth-layer vector (unused layers 0) and its number of boundary
 /// crossings (which may exceed the k layers kept).
 pub(super) type Sample = ([f32; 4], [f32; 4], usize);
@@ -451,10 +487,12 @@ impl Filter<'_> {
                             wsum += wgt;
                         }
                     }
+                    // The four samples in the order (y, x) of `bilinear4`.
+                    let tw = [tx[0] * ty[0], tx[1] * ty[0], tx[0] * ty[1], tx[1] * ty[1]];
+                    let q = [rb[0] + ca[0], rb[0] + ca[1], rb[1] + ca[0], rb[1] + ca[1]];
+                    let colour = std::array::from_fn(|m| &samples[q[m]].0);
                     if edge && gd.iter().flatten().all(|&g| g < G_MATCH) {
-                        let tw = [tx[0] * ty[0], tx[1] * ty[0], tx[0] * ty[1], tx[1] * ty[1]];
-                        let q = [rb[0] + ca[0], rb[0] + ca[1], rb[1] + ca[0], rb[1] + ca[1]];
-                        *o = bilinear4(std::array::from_fn(|m| &samples[q[m]].0), &tw);
+                        *o = bilinear4(colour, &tw);
                         continue;
                     }
                     let same = if wsum >= W_MIN {
@@ -473,30 +511,8 @@ impl Filter<'_> {
                         *o = same;
                         continue;
                     }
-                    // Colour consistency: a sample across a depth edge whose colour continues
-                    // the pixel's side (a silhouette that fades out) is kept as bilinear keeps it.
-                    let mut acc = [0.0f32; 4];
-                    let mut wsum = 0.0f32;
-                    for y in 0..2 {
-                        for x in 0..2 {
-                            let s = &samples[rb[y] + ca[x]];
-                            let mut c2 = 0.0f32;
-                            for (v, m) in s.0.iter().zip(&same) {
-                                c2 += (v - m) * (v - m);
-                            }
-                            let g = gd[y][x].max(exp_neg(c2 * inv2c2));
-                            let wgt = tx[x] * ty[y] * g;
-                            for (a, v) in acc.iter_mut().zip(&s.0) {
-                                *a += wgt * v;
-                            }
-                            wsum += wgt;
-                        }
-                    }
-                    *o = if wsum >= W_MIN {
-                        acc.map(|v| v / wsum)
-                    } else {
-                        same
-                    };
+                    let gd = [gd[0][0], gd[0][1], gd[1][0], gd[1][1]];
+                    *o = colour_consistent(colour, &tw, &gd, same, inv2c2);
                 }
             });
     }

@@ -55,7 +55,7 @@
 mod exterior;
 
 use super::{
-    centroids, check_prepared, f32x3, sort_desc_by_key, KeyFn, Sort, SortInfo, SortStats, Stall,
+    centroids, check_prepared, f32x3, seed_sources, KeyFn, Sort, SortInfo, SortStats, Stall,
 };
 use crate::camera::{Camera, Projection};
 use crate::error::Result;
@@ -203,17 +203,8 @@ impl Sort for Xmpvo {
 
         // 3. Sources farthest first, then Kahn with a stack; cycle fallback at stalls.
         let kf = KeyFn::for_camera(camera);
-        self.sources.clear();
         let cents = &self.centroids;
-        sort_desc_by_key(
-            self.indeg
-                .iter()
-                .enumerate()
-                .filter(|(_, &d)| d == 0)
-                .map(|(t, _)| (t as u32, kf.key(&cents[t]))),
-            &mut self.sources,
-        );
-        stats.sources = self.sources.len();
+        stats.sources = seed_sources(&self.indeg, |t| kf.key(&cents[t]), &mut self.sources);
         order.clear();
         order.reserve(nt);
         self.stack.clear();

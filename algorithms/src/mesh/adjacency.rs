@@ -81,6 +81,7 @@ pub(crate) fn face_links_with(tets: &[[u32; 4]], nverts: usize, cap: usize) -> F
             }
         });
     }
+    // At most 4 · (2³⁰ − 1) faces in all: the running sum stays in 32 bits.
     let mut sum = 0u32;
     for s in start.iter_mut() {
         let n = *s;

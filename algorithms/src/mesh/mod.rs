@@ -25,6 +25,9 @@ pub const MAX_TETS: usize = (1 << 30) - 1;
 /// Marks a face with no neighbouring tet in [`Mesh::adjacency`].
 pub const BOUNDARY: u32 = u32::MAX;
 
+// The last face id of a mesh at its largest, `4 · (MAX_TETS − 1) + 3`, stays below `BOUNDARY`.
+const _: () = assert!(4 * (MAX_TETS - 1) + 3 < BOUNDARY as usize);
+
 /// Vertex indices (into the tet's own four) of face `f`, the face opposite vertex `f`, ordered so
 /// that the normal `(v1 - v0) × (v2 - v0)` points out of a positively oriented tet.
 pub const FACE_VERTS: [[usize; 3]; 4] = [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]];
@@ -221,6 +224,25 @@ impl Mesh {
     }
     pub fn fields(&self) -> &[Field] {
         &self.fields
+    }
+    /// Bytes of the mesh's own data, as its arrays hold them: positions, tets, every field
+    /// step and the field data (not the derived data cached on first use). What a loader
+    /// cannot do with less, and what a mesh's resident bytes are measured against.
+    pub fn data_bytes(&self) -> usize {
+        use std::mem::size_of_val;
+        size_of_val(self.positions.as_slice())
+            + size_of_val(self.tets.as_slice())
+            + self
+                .fields
+                .iter()
+                .flat_map(|f| &f.steps)
+                .map(|s| size_of_val(s.as_slice()))
+                .sum::<usize>()
+            + self
+                .field_data
+                .values()
+                .map(|v| size_of_val(v.as_slice()))
+                .sum::<usize>()
     }
     /// The active field's name and time step.
     pub fn active_field(&self) -> (&str, usize) {

@@ -1,10 +1,11 @@
-//! Small utilities the renderers share: the counting allocator, heaviest-first scheduling and a
-//! cache prefetch hint.
+//! Small utilities the renderers share: the counting allocator, heaviest-first scheduling,
+//! checked 64-bit sizes and a cache prefetch hint.
 
 pub mod alloc;
 #[cfg(test)]
 pub(crate) mod rng;
 pub mod schedule;
+pub mod size;
 
 /// A hint to bring the cache line at `p` in (a no-op where there is no such instruction). `p`
 /// need not point into anything: a prefetch never faults, so an index past an array (a link

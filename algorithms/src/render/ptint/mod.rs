@@ -153,16 +153,12 @@ impl Ptint {
 /// Workgroup counts (x, y) covering `n` invocations of a 1-D index flattened by
 /// `ptint_index` (x at most the adapter's per-dimension limit).
 fn groups(gpu: &Gpu, n: usize, what: &str) -> Result<(u32, u32)> {
-    let max = gpu.limits.max_compute_workgroups_per_dimension.max(1) as u64;
-    let g = (n as u64).div_ceil(WG as u64).max(1);
-    let x = g.min(max);
-    let y = g.div_ceil(x);
-    if y > max {
-        return Err(Error::Input(format!(
+    let max = gpu.limits.max_compute_workgroups_per_dimension;
+    crate::util::size::dispatch_grid(n as u64, WG, max).ok_or_else(|| {
+        Error::Input(format!(
             "ptint: {n} {what} exceed the GPU's dispatch limit"
-        )));
-    }
-    Ok((x as u32, y as u32))
+        ))
+    })
 }
 
 fn compute_pipeline(

@@ -79,8 +79,9 @@ fn depth_bound(cam: &Camera, p: [glam::DVec3; 3]) -> f32 {
 pub(super) struct EntryGrid {
     nx: usize,
     ny: usize,
-    /// Cell c's items are `items[start[c]..start[c + 1]]`, in ascending leaf order.
-    start: Vec<u32>,
+    /// Cell c's items are `items[start[c]..start[c + 1]]`, in ascending leaf order. A face is
+    /// filed in every cell its box meets, so the total can pass 2³² on a large mesh: 64-bit.
+    start: Vec<usize>,
     items: Vec<Item>,
     /// Per cell, the largest `t_max` of its items (−∞ when it has none): a search beyond it
     /// would pass over every item, so it is not made (a ray leaving a convex part of the mesh
@@ -183,7 +184,7 @@ impl EntryGrid {
             let c = |v: f32, n: usize| ((v.max(0.0) as usize) / CELL).min(n - 1);
             (c(it.x0, nx), c(it.x1, nx), c(it.y0, ny), c(it.y1, ny))
         };
-        let mut start = vec![0u32; nx * ny + 1];
+        let mut start = vec![0usize; nx * ny + 1];
         for it in enterable() {
             let (cx0, cx1, cy0, cy1) = range(it);
             for cy in cy0..=cy1 {
@@ -195,7 +196,7 @@ impl EntryGrid {
         for c in 0..nx * ny {
             start[c + 1] += start[c];
         }
-        let mut fill: Vec<u32> = start[..nx * ny].to_vec();
+        let mut fill: Vec<usize> = start[..nx * ny].to_vec();
         let blank = Item {
             leaf: 0,
             x0: 0.0,
@@ -204,13 +205,13 @@ impl EntryGrid {
             y1: -1.0,
             t_max: f32::NEG_INFINITY,
         };
-        let mut items = vec![blank; start[nx * ny] as usize];
+        let mut items = vec![blank; start[nx * ny]];
         for it in enterable() {
             let (cx0, cx1, cy0, cy1) = range(it);
             for cy in cy0..=cy1 {
                 for cx in cx0..=cx1 {
                     let f = &mut fill[cy * nx + cx];
-                    items[*f as usize] = *it;
+                    items[*f] = *it;
                     *f += 1;
                 }
             }
@@ -218,7 +219,7 @@ impl EntryGrid {
         let cell_t_max = start
             .windows(2)
             .map(|r| {
-                items[r[0] as usize..r[1] as usize]
+                items[r[0]..r[1]]
                     .iter()
                     .fold(f32::NEG_INFINITY, |m, it| m.max(it.t_max))
             })
@@ -275,7 +276,7 @@ impl EntryGrid {
         let bvh = &st.bvh;
         let mut best: Option<(u32, usize, f64, f64, u32)> = None;
         let mut best_t = f64::INFINITY;
-        for it in &self.items[self.start[c] as usize..self.start[c + 1] as usize] {
+        for it in &self.items[self.start[c]..self.start[c + 1]] {
             // (`|`, not `||`: one branch a face, not five hard-to-predict ones.)
             if (px < it.x0) | (px > it.x1) | (py < it.y0) | (py > it.y1) | ((it.t_max as f64) < t_min) {
                 continue;

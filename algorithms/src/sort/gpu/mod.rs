@@ -76,13 +76,14 @@ fn pipeline(gpu: &Gpu, label: &str, stage: &str) -> wgpu::ComputePipeline {
         })
 }
 
-/// Workgroup grid for `groups` workgroups (2-D beyond 65535).
-fn grid(groups: u32) -> (u32, u32) {
-    if groups <= MAX_X {
-        (groups.max(1), 1)
-    } else {
-        (MAX_X, groups.div_ceil(MAX_X))
-    }
+/// Workgroup grid for `groups` workgroups (2-D beyond 65535), or one line when even the
+/// square grid cannot hold them.
+fn grid(groups: u64) -> Result<(u32, u32)> {
+    crate::util::size::dispatch_grid(groups, 1, MAX_X).ok_or_else(|| {
+        Error::Input(format!(
+            "GPU sort: {groups} workgroups exceed the dispatch limit"
+        ))
+    })
 }
 
 fn entries<'a>(bufs: &[&'a wgpu::Buffer]) -> Vec<wgpu::BindGroupEntry<'a>> {
@@ -123,6 +124,7 @@ pub struct GpuSorter {
     key_params: wgpu::Buffer,
     key_pipe: wgpu::ComputePipeline,
     key_bind: wgpu::BindGroup,
+    key_groups: (u32, u32),
     steps: Vec<Step>,
 }
 
@@ -189,7 +191,7 @@ impl GpuSorter {
                     steps.push(Step {
                         bind: bind(gpu, &hist_p, &[&params, src_k, &hist]),
                         pipe: hist_p.clone(),
-                        groups: grid(nblocks),
+                        groups: grid(nblocks.into())?,
                     });
                     steps.push(Step {
                         bind: bind(gpu, &scan_p, &[&params, &hist]),
@@ -199,7 +201,7 @@ impl GpuSorter {
                     steps.push(Step {
                         bind: bind(gpu, &scat_p, &[&params, src_k, src_v, dst_k, dst_v, &hist]),
                         pipe: scat_p.clone(),
-                        groups: grid(nblocks),
+                        groups: grid(nblocks.into())?,
                     });
                 }
             }
@@ -214,7 +216,7 @@ impl GpuSorter {
                         .write_buffer(&vals, at, bytemuck::cast_slice(&pad));
                 }
                 let p = pipeline(gpu, "bitonic", include_str!("bitonic.comp.wgsl"));
-                let groups = grid((len as u32).div_ceil(WG));
+                let groups = grid(len.div_ceil(WG.into()))?;
                 let mut k = 2u32;
                 while k as u64 <= len {
                     let mut j = k / 2;
@@ -241,6 +243,7 @@ impl GpuSorter {
             key_params,
             key_pipe,
             key_bind,
+            key_groups: grid(u64::from(n32).div_ceil(WG.into()))?,
             steps,
         })
     }
@@ -277,8 +280,7 @@ impl GpuSorter {
         }
         pass.set_pipeline(&self.key_pipe);
         pass.set_bind_group(0, &self.key_bind, &[]);
-        let (x, y) = grid(self.n.div_ceil(WG));
-        pass.dispatch_workgroups(x, y, 1);
+        pass.dispatch_workgroups(self.key_groups.0, self.key_groups.1, 1);
         for s in &self.steps {
             pass.set_pipeline(&s.pipe);
             pass.set_bind_group(0, &s.bind, &[]);

@@ -4,7 +4,7 @@
 //! tet lines may carry a leading count `4`, `#` starts a comment. 1-based indices are refused
 //! with a message unless `LoadOptions::one_based` is set. Vertex lines may lack the scalar (0).
 
-use std::io::Write;
+use std::io::{BufRead, Read, Write};
 use std::path::Path;
 
 use glam::DVec3;
@@ -13,44 +13,124 @@ use super::{atomic_write, LoadOptions};
 use crate::error::{Error, Result};
 use crate::mesh::Mesh;
 
-/// Reads a `.off` file.
+/// The longest line read: a vertex or tet line is well under 200 bytes, so a longer one is a
+/// file that is not `.off` (and is refused before it fills memory).
+const MAX_LINE: u64 = 1 << 20;
+
+/// Reads a `.off` file line by line through a buffered reader, straight into the mesh's
+/// arrays: the peak is the mesh and one line.
 pub fn read_off(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
-    let text = super::read_input(path, super::files::ANY_SIZE)?;
-    parse_off(&text, &path.display().to_string(), opts)
+    let f = super::open_input(path)?;
+    let len = f.metadata().map_err(|e| Error::io(path, e))?.len();
+    let r = std::io::BufReader::with_capacity(1 << 16, f);
+    parse_off_from(r, len, &path.display().to_string(), opts)
 }
 
 /// Parses `.off` text; `source` names it in messages.
 pub fn parse_off(bytes: &[u8], source: &str, opts: &LoadOptions) -> Result<Mesh> {
-    let text = std::str::from_utf8(bytes)
-        .map_err(|e| Error::input(source, format!("not a text file ({e})")))?;
-    // A UTF-8 byte-order mark is accepted (and ignored), as in every reader.
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    // Significant lines with their 1-based line numbers.
-    let mut lines = text.lines().enumerate().filter_map(|(i, l)| {
-        let l = l.split('#').next().unwrap_or("").trim();
-        (!l.is_empty()).then_some((i + 1, l))
-    });
+    parse_off_from(bytes, bytes.len() as u64, source, opts)
+}
+
+/// The significant lines of a text stream (comments after `#` and blank lines left out), with
+/// their 1-based line numbers, one at a time in one reused buffer.
+struct Lines<'a, R> {
+    r: R,
+    buf: Vec<u8>,
+    line: usize,
+    source: &'a str,
+}
+
+impl<R: BufRead> Lines<'_, R> {
+    fn next(&mut self) -> Result<Option<(usize, &str)>> {
+        let (a, b) = loop {
+            self.buf.clear();
+            let n = (&mut self.r)
+                .take(MAX_LINE + 1)
+                .read_until(b'\n', &mut self.buf)
+                .map_err(|e| Error::input(self.source, e))?;
+            if n == 0 {
+                return Ok(None);
+            }
+            self.line += 1;
+            if n as u64 > MAX_LINE {
+                return Err(Error::input(
+                    format!("{}: line {}", self.source, self.line),
+                    format!("longer than {MAX_LINE} bytes (not a .off file?)"),
+                ));
+            }
+            let s = std::str::from_utf8(&self.buf).map_err(|e| {
+                Error::input(
+                    self.source,
+                    format!("not a text file (line {}: {e})", self.line),
+                )
+            })?;
+            // A UTF-8 byte-order mark is accepted (and ignored), as in every reader.
+            let s = if self.line == 1 {
+                s.strip_prefix('\u{feff}').unwrap_or(s)
+            } else {
+                s
+            };
+            let l = s.split('#').next().unwrap_or("").trim();
+            if !l.is_empty() {
+                let a = l.as_ptr() as usize - self.buf.as_ptr() as usize;
+                break (a, a + l.len());
+            }
+        };
+        // A slice of the line checked above, cut at character boundaries.
+        Ok(Some((
+            self.line,
+            std::str::from_utf8(&self.buf[a..b]).unwrap_or(""),
+        )))
+    }
+}
+
+/// Up to `N` whitespace-separated words of `line` and how many it has (at most `N + 1`).
+fn words<const N: usize>(line: &str) -> ([&str; N], usize) {
+    let mut w = [""; N];
+    let mut n = 0;
+    for (i, x) in line.split_whitespace().enumerate() {
+        if i == N {
+            return (w, N + 1);
+        }
+        w[i] = x;
+        n = i + 1;
+    }
+    (w, n)
+}
+
+/// Parses `.off` text from `r` (`len` bytes, which bounds what a lying header may reserve);
+/// `source` names it in messages.
+fn parse_off_from<R: BufRead>(r: R, len: u64, source: &str, opts: &LoadOptions) -> Result<Mesh> {
+    let mut lines = Lines {
+        r,
+        buf: Vec::new(),
+        line: 0,
+        source,
+    };
     let err = |line: usize, msg: String| Error::input(format!("{source}: line {line}"), msg);
 
-    let (mut ln, mut header) = lines
-        .next()
+    let (mut ln, first) = lines
+        .next()?
         .ok_or_else(|| Error::input(source, "empty file"))?;
-    let first_is_keyword = header
-        .split_whitespace()
-        .next()
-        .is_some_and(|w| w.chars().next().is_some_and(|c| c.is_ascii_alphabetic()));
-    if first_is_keyword {
-        let rest = header.split_whitespace().skip(1).collect::<Vec<_>>();
-        if rest.len() >= 2 {
-            header = header[header.find(char::is_whitespace).unwrap_or(0)..].trim();
+    let (w, n) = words::<3>(first);
+    let first_is_keyword = n > 0 && w[0].chars().next().is_some_and(|c| c.is_ascii_alphabetic());
+    let header: String = if first_is_keyword {
+        if n >= 3 {
+            first[first.find(char::is_whitespace).unwrap_or(0)..]
+                .trim()
+                .to_string()
         } else {
-            (ln, header) = lines
-                .next()
+            let (l, h) = lines
+                .next()?
                 .ok_or_else(|| err(ln, "keyword line but no header follows".into()))?;
+            ln = l;
+            h.to_string()
         }
-    }
-    let counts: Vec<&str> = header.split_whitespace().collect();
-    if counts.len() < 2 {
+    } else {
+        first.to_string()
+    };
+    let (counts, n) = words::<2>(&header);
+    if n < 2 {
         return Err(err(
             ln,
             format!("expected 'nverts ntets', found '{header}'"),
@@ -63,22 +143,22 @@ pub fn parse_off(bytes: &[u8], source: &str, opts: &LoadOptions) -> Result<Mesh>
     let nv = parse_count(counts[0], "vertex count")?;
     let nt = parse_count(counts[1], "tet count")?;
     // A lying header must not make us allocate: a record takes at least 6 bytes of text.
-    let cap = bytes.len() / 6;
+    let cap = usize::try_from(len / 6).unwrap_or(usize::MAX);
     let mut pos = Vec::with_capacity(nv.min(cap));
     let mut scal = Vec::with_capacity(nv.min(cap));
     for k in 0..nv {
         let (l, line) = lines
-            .next()
+            .next()?
             .ok_or_else(|| Error::input(source, format!("file ends after {k} of {nv} vertices")))?;
-        let w: Vec<&str> = line.split_whitespace().collect();
-        if w.len() < 3 {
+        let (w, n) = words::<4>(line);
+        if n < 3 {
             return Err(err(
                 l,
                 format!("vertex {k}: expected 'x y z s', found '{line}'"),
             ));
         }
         let mut v = [0.0f64; 4];
-        for (i, word) in w.iter().take(4).enumerate() {
+        for (i, word) in w.iter().take(n.min(4)).enumerate() {
             v[i] = word
                 .parse::<f64>()
                 .map_err(|_| err(l, format!("vertex {k}: '{word}' is not a number")))?;
@@ -89,15 +169,19 @@ pub fn parse_off(bytes: &[u8], source: &str, opts: &LoadOptions) -> Result<Mesh>
         pos.push(DVec3::new(v[0], v[1], v[2]));
         scal.push(v[3]);
     }
-    let mut tets = Vec::with_capacity(nt.min(cap));
-    let mut tet_lines = Vec::with_capacity(nt.min(cap));
+    let mut tets: Vec<[u32; 4]> = Vec::with_capacity(nt.min(cap));
+    // What the index checks after the last tet need: the smallest and largest index, and the
+    // first tet (number and line) with an index ≥ nv and with one > nv (out of range read
+    // 0-based and 1-based).
+    let (mut min, mut max) = (u32::MAX, 0u32);
+    let (mut first_ge, mut first_gt) = (None, None);
     for k in 0..nt {
         let (l, line) = lines
-            .next()
+            .next()?
             .ok_or_else(|| Error::input(source, format!("file ends after {k} of {nt} tets")))?;
-        let w: Vec<&str> = line.split_whitespace().collect();
-        let idx: &[&str] = match w.len() {
-            4 => &w,
+        let (w, n) = words::<5>(line);
+        let idx: &[&str] = match n {
+            4 => &w[..4],
             5 if w[0] == "4" => &w[1..],
             _ => {
                 return Err(err(
@@ -115,13 +199,17 @@ pub fn parse_off(bytes: &[u8], source: &str, opts: &LoadOptions) -> Result<Mesh>
                 )
             })?;
         }
+        let (lo, hi) = (t.iter().min().copied(), t.iter().max().copied());
+        let (lo, hi) = (lo.unwrap_or(0), hi.unwrap_or(0));
+        (min, max) = (min.min(lo), max.max(hi));
+        if hi as usize >= nv && first_ge.is_none() {
+            first_ge = Some((k, l));
+        }
+        if hi as usize > nv && first_gt.is_none() {
+            first_gt = Some((k, l));
+        }
         tets.push(t);
-        tet_lines.push(l);
     }
-    let (min, max) = tets
-        .iter()
-        .flatten()
-        .fold((u32::MAX, 0u32), |(lo, hi), &v| (lo.min(v), hi.max(v)));
     let looks_one_based = nt > 0 && min >= 1 && max as usize == nv;
     if looks_one_based && !opts.one_based {
         return Err(Error::input(
@@ -129,7 +217,7 @@ pub fn parse_off(bytes: &[u8], source: &str, opts: &LoadOptions) -> Result<Mesh>
             format!("indices are 1-based (they run 1..={nv}); pass --one-based to read it"),
         ));
     }
-    if opts.one_based {
+    let bad = if opts.one_based {
         if min == 0 {
             return Err(Error::input(
                 source,
@@ -141,13 +229,13 @@ pub fn parse_off(bytes: &[u8], source: &str, opts: &LoadOptions) -> Result<Mesh>
                 *v -= 1;
             }
         }
-    }
-    if let Some(k) = tets
-        .iter()
-        .position(|t| t.iter().any(|&v| v as usize >= nv))
-    {
+        first_gt
+    } else {
+        first_ge
+    };
+    if let Some((k, l)) = bad {
         return Err(err(
-            tet_lines[k],
+            l,
             format!("tet {k}: index out of range {:?} (vertices: {nv})", tets[k]),
         ));
     }

@@ -2,7 +2,8 @@
 //! q file. The variant — byte order, a leading grid count of 1, float32 or float64, IBLANK,
 //! Fortran record markers — is found by trying every combination against the file size; the
 //! byte order is the one whose `ni nj nk` are positive and make the sizes agree. Nothing is
-//! allocated before the sizes agree.
+//! allocated before the sizes agree. The files are read at offsets a block at a time, each
+//! array straight into the mesh's, so the peak is the mesh and a block.
 //!
 //! Fields: density, momentum-x/-y/-z, energy, and velocity = |momentum| / density (0 where the
 //! density is 0). Every hex cell is kept and split (5 tets alternating, or 6 with
@@ -36,7 +37,7 @@ pub fn read_plot3d(xyz: &Path, opts: &LoadOptions) -> Result<Mesh> {
         Some(q) => q.clone(),
         None => q_path(xyz)?,
     };
-    let xyz_bytes = crate::io::read_input(xyz, crate::io::files::ANY_SIZE)?;
+    let xyz_file = FileSrc::open(xyz)?;
     if !q.exists() {
         return Err(Error::input(
             xyz.display(),
@@ -46,14 +47,66 @@ pub fn read_plot3d(xyz: &Path, opts: &LoadOptions) -> Result<Mesh> {
             ),
         ));
     }
-    let q_bytes = crate::io::read_input(&q, crate::io::files::ANY_SIZE)?;
-    parse_plot3d(
-        &xyz_bytes,
-        &q_bytes,
+    let q_file = FileSrc::open(&q)?;
+    parse(
+        &xyz_file,
+        &q_file,
         &xyz.display().to_string(),
         &q.display().to_string(),
         opts,
     )
+}
+
+/// Bytes at offsets: a file read where it is needed, or one held in memory.
+trait Src {
+    /// The size in bytes.
+    fn size(&self) -> usize;
+    /// Fills `buf` with the bytes at `off`, or says that they are not all there.
+    fn at(&self, off: usize, buf: &mut [u8]) -> std::io::Result<bool>;
+}
+
+impl Src for &[u8] {
+    fn size(&self) -> usize {
+        self.len()
+    }
+    fn at(&self, off: usize, buf: &mut [u8]) -> std::io::Result<bool> {
+        match off.checked_add(buf.len()).and_then(|e| self.get(off..e)) {
+            Some(b) => {
+                buf.copy_from_slice(b);
+                Ok(true)
+            }
+            None => Ok(false),
+        }
+    }
+}
+
+/// A file read at offsets (`pread`), a block at a time: never held whole.
+struct FileSrc {
+    file: std::fs::File,
+    len: usize,
+}
+
+impl FileSrc {
+    fn open(path: &Path) -> Result<FileSrc> {
+        let file = crate::io::open_input(path)?;
+        let len = file.metadata().map_err(|e| Error::io(path, e))?.len();
+        let len = usize::try_from(len)
+            .map_err(|_| Error::input(path.display(), format!("{len} bytes: too large")))?;
+        Ok(FileSrc { file, len })
+    }
+}
+
+impl Src for FileSrc {
+    fn size(&self) -> usize {
+        self.len
+    }
+    fn at(&self, off: usize, buf: &mut [u8]) -> std::io::Result<bool> {
+        use std::os::unix::fs::FileExt;
+        if off.checked_add(buf.len()).is_none_or(|e| e > self.len) {
+            return Ok(false);
+        }
+        self.file.read_exact_at(buf, off as u64).map(|_| true)
+    }
 }
 
 /// The q file beside `xyz`: its file name with the last `xyz` replaced by `q`.
@@ -113,8 +166,11 @@ impl Variant {
     }
 }
 
-fn i32_at(b: &[u8], off: usize, big: bool) -> Option<i64> {
-    let w: [u8; 4] = b.get(off..off.checked_add(4)?)?.try_into().ok()?;
+fn i32_at(b: &dyn Src, off: usize, big: bool) -> Option<i64> {
+    let mut w = [0u8; 4];
+    if !b.at(off, &mut w).ok()? {
+        return None;
+    }
     Some(if big {
         i32::from_be_bytes(w)
     } else {
@@ -124,10 +180,10 @@ fn i32_at(b: &[u8], off: usize, big: bool) -> Option<i64> {
 
 /// Reads a record of `len` bytes starting at `off` (with markers when asked); returns the
 /// offset of its data and the offset past it.
-fn record(b: &[u8], off: usize, len: usize, v: Variant) -> Option<(usize, usize)> {
+fn record(b: &dyn Src, off: usize, len: usize, v: Variant) -> Option<(usize, usize)> {
     if !v.markers {
         let end = off.checked_add(len)?;
-        return (end <= b.len()).then_some((off, end));
+        return (end <= b.size()).then_some((off, end));
     }
     let m = i32_at(b, off, v.big)?;
     if m < 0 || m as u64 != len as u64 {
@@ -139,7 +195,7 @@ fn record(b: &[u8], off: usize, len: usize, v: Variant) -> Option<(usize, usize)
 }
 
 /// Grid count (when present) and dimensions: offset past them.
-fn dims(b: &[u8], v: Variant) -> Option<([usize; 3], usize, usize)> {
+fn dims(b: &dyn Src, v: Variant) -> Option<([usize; 3], usize, usize)> {
     let mut off = 0;
     if v.ngrid {
         let (d, e) = record(b, 0, 4, v)?;
@@ -162,7 +218,7 @@ fn dims(b: &[u8], v: Variant) -> Option<([usize; 3], usize, usize)> {
 }
 
 /// xyz layout: dims, offset of the coordinate data. The file size must agree exactly.
-fn xyz_layout(b: &[u8], v: Variant) -> Option<([usize; 3], usize)> {
+fn xyz_layout(b: &dyn Src, v: Variant) -> Option<([usize; 3], usize)> {
     let (d, n, off) = dims(b, v)?;
     let len =
         n.checked_mul(3 * v.fs())?
@@ -171,12 +227,12 @@ fn xyz_layout(b: &[u8], v: Variant) -> Option<([usize; 3], usize)> {
         return None;
     }
     let (data, end) = record(b, off, len, v)?;
-    (end == b.len()).then_some((d, data))
+    (end == b.size()).then_some((d, data))
 }
 
 /// q layout: dims, offset of (mach, alpha, re, time), offset of the 5 arrays; trailing bytes
 /// are allowed when `exact` is false.
-fn q_layout(b: &[u8], v: Variant, exact: bool) -> Option<([usize; 3], usize, usize)> {
+fn q_layout(b: &dyn Src, v: Variant, exact: bool) -> Option<([usize; 3], usize, usize)> {
     let (d, n, off) = dims(b, v)?;
     let (h, e) = record(b, off, 4 * v.fs(), v)?;
     let len = n.checked_mul(5 * v.fs())?;
@@ -184,34 +240,72 @@ fn q_layout(b: &[u8], v: Variant, exact: bool) -> Option<([usize; 3], usize, usi
         return None;
     }
     let (data, end) = record(b, e, len, v)?;
-    (!exact || end == b.len()).then_some((d, h, data))
+    (!exact || end == b.size()).then_some((d, h, data))
 }
 
-fn floats(b: &[u8], off: usize, n: usize, v: Variant) -> impl Iterator<Item = f64> + '_ {
+/// Bytes decoded at a time.
+const BLOCK: usize = 8 * 8192;
+
+/// The `n` floats of `v`'s precision and byte order at `off`, handed to `f` with their index,
+/// read a block at a time.
+fn floats(
+    b: &dyn Src,
+    name: &str,
+    off: usize,
+    n: usize,
+    v: Variant,
+    mut f: impl FnMut(usize, f64),
+) -> Result<()> {
     let fs = v.fs();
-    b[off..off + n * fs].chunks_exact(fs).map(move |c| {
-        if v.f64 {
-            let w: [u8; 8] = c.try_into().unwrap_or([0; 8]);
-            if v.big {
-                f64::from_be_bytes(w)
-            } else {
-                f64::from_le_bytes(w)
-            }
-        } else {
-            let w: [u8; 4] = c.try_into().unwrap_or([0; 4]);
-            (if v.big {
-                f32::from_be_bytes(w)
-            } else {
-                f32::from_le_bytes(w)
-            }) as f64
+    let mut buf = vec![0u8; BLOCK.min(n * fs)];
+    let mut i = 0;
+    while i < n {
+        let k = (BLOCK / fs).min(n - i);
+        let chunk = &mut buf[..k * fs];
+        if !b
+            .at(off + i * fs, chunk)
+            .map_err(|e| Error::input(name, e))?
+        {
+            return Err(Error::input(name, "file ends inside its data (truncated?)"));
         }
-    })
+        for (j, c) in chunk.chunks_exact(fs).enumerate() {
+            let x = if v.f64 {
+                let w: [u8; 8] = c.try_into().unwrap_or([0; 8]);
+                if v.big {
+                    f64::from_be_bytes(w)
+                } else {
+                    f64::from_le_bytes(w)
+                }
+            } else {
+                let w: [u8; 4] = c.try_into().unwrap_or([0; 4]);
+                (if v.big {
+                    f32::from_be_bytes(w)
+                } else {
+                    f32::from_le_bytes(w)
+                }) as f64
+            };
+            f(i + j, x);
+        }
+        i += k;
+    }
+    Ok(())
 }
 
 /// Parses a PLOT3D xyz and q pair held in memory; the names are used in messages.
 pub fn parse_plot3d(
     xyz: &[u8],
     q: &[u8],
+    xyz_name: &str,
+    q_name: &str,
+    opts: &LoadOptions,
+) -> Result<Mesh> {
+    parse(&xyz, &q, xyz_name, q_name, opts)
+}
+
+/// Parses a PLOT3D xyz and q pair, reading each array straight into the mesh's.
+fn parse(
+    xyz: &dyn Src,
+    q: &dyn Src,
     xyz_name: &str,
     q_name: &str,
     opts: &LoadOptions,
@@ -244,7 +338,7 @@ pub fn parse_plot3d(
             format!(
                 "not a PLOT3D whole single-grid xyz file: no combination of byte order, precision, \
                  IBLANK, grid count and record markers matches its size of {} bytes{hint}",
-                xyz.len()
+                xyz.size()
             ),
         ));
     };
@@ -273,20 +367,27 @@ pub fn parse_plot3d(
                 d[1],
                 d[2],
                 xv.describe(),
-                q.len()
+                q.size()
             ),
         };
         return Err(Error::input(q_name, msg));
     };
-    let x: Vec<f64> = floats(xyz, xoff, 3 * n, xv).collect();
-    let positions: Vec<DVec3> = (0..n)
-        .map(|i| DVec3::new(x[i], x[n + i], x[2 * n + i]))
-        .collect();
-    drop(x);
-    let h: Vec<f64> = floats(q, hoff, 4, qv).collect();
-    let qa: Vec<f64> = floats(q, qoff, 5 * n, qv).collect();
-    let arr = |k: usize| qa[k * n..(k + 1) * n].to_vec();
-    let (rho, mx, my, mz, e) = (arr(0), arr(1), arr(2), arr(3), arr(4));
+    // Each array straight into the mesh's: x, y and z into the positions in three passes.
+    let mut positions =
+        crate::util::alloc::try_vec(n, DVec3::ZERO).map_err(|e| Error::input(xyz_name, e))?;
+    for c in [0usize, 1, 2] {
+        floats(xyz, xyz_name, xoff + c * n * xv.fs(), n, xv, |i, x| {
+            positions[i][c] = x
+        })?;
+    }
+    let mut h = [0.0; 4];
+    floats(q, q_name, hoff, 4, qv, |i, x| h[i] = x)?;
+    let arr = |k: usize| -> Result<Vec<f64>> {
+        let mut a = crate::util::alloc::try_vec(n, 0.0).map_err(|e| Error::input(q_name, e))?;
+        floats(q, q_name, qoff + k * n * qv.fs(), n, qv, |i, x| a[i] = x)?;
+        Ok(a)
+    };
+    let (rho, mx, my, mz, e) = (arr(0)?, arr(1)?, arr(2)?, arr(3)?, arr(4)?);
     let vel: Vec<f64> = (0..n)
         .map(|i| {
             if rho[i] == 0.0 {
@@ -296,7 +397,6 @@ pub fn parse_plot3d(
             }
         })
         .collect();
-    drop(qa);
     let tets = split::split_structured(xyz_name, d, &positions, opts.split.unwrap_or(Split::Five))?;
     let f = |name: &str, v: Vec<f64>| Field {
         name: name.to_string(),

@@ -12,7 +12,8 @@
 //! The file is read in three steps: the header ([`read_header`]), the sections, each keyword
 //! read by its own function into [`sections::Sections`], and the mesh made of what they held
 //! ([`sections::Sections::into_mesh`]). [`cursor::Cur`] reads the lines and the ASCII or
-//! binary arrays.
+//! binary arrays. A BINARY 5.1 grid of tets, the large files' format, is read as a stream
+//! instead ([`stream`]), a block at a time straight into the mesh.
 
 use std::path::Path;
 
@@ -22,16 +23,22 @@ use crate::mesh::Mesh;
 
 mod cursor;
 mod sections;
+mod stream;
 #[cfg(test)]
 pub(crate) mod tests;
 
 use cursor::Cur;
 use sections::Sections;
 
-/// Reads a VTK legacy file (see the module docs).
+/// Reads a VTK legacy file (see the module docs): a BINARY 5.1 all-tet grid as a stream
+/// ([`stream`]), any other file whole.
 pub fn read_vtk(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
+    let source = path.display().to_string();
+    if let Some(mesh) = stream::stream_vtk(crate::io::open_input(path)?, &source, opts)? {
+        return Ok(mesh);
+    }
     let bytes = crate::io::read_input(path, crate::io::files::ANY_SIZE)?;
-    parse_vtk(&bytes, &path.display().to_string(), opts)
+    parse_vtk(&bytes, &source, opts)
 }
 
 /// Parses a VTK legacy file held in memory; `source` names it in messages.

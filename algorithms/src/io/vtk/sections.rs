@@ -15,7 +15,7 @@ use crate::mesh::Mesh;
 
 /// An array name with VTK's `%XX` escapes (spaces and other bytes a legacy name cannot hold)
 /// decoded; a `%` not followed by two hex digits stays as it is.
-fn decode_name(s: &str) -> String {
+pub(super) fn decode_name(s: &str) -> String {
     let b = s.as_bytes();
     let mut out = Vec::with_capacity(b.len());
     let mut i = 0;

@@ -8,18 +8,23 @@
 //! `Mesh::field_data`. Hand-written on `quick-xml` for the same reasons as the legacy reader
 //! (checked counts, no allocation from a lying header, messages that name line and array);
 //! the appended block is cut off before the XML parser sees it, since raw bytes are not XML.
+//! A file's raw appended arrays of tets are read as a stream, with a peak of the mesh and a
+//! block.
 //!
 //! The writer is [`crate::io::writers::vtu`].
 //!
-//! Files: [`read`] parses the XML and makes the mesh, [`data`] decodes one DataArray (ASCII,
-//! base64, zlib, appended).
+//! Files: [`stream`] reads a file (a large all-tet mesh of raw appended arrays a block at a
+//! time, straight into the mesh), [`read`] parses the XML and makes the mesh of a file held in
+//! memory, [`data`] decodes one DataArray (ASCII, base64, zlib, appended).
 
 mod data;
 mod read;
+mod stream;
 #[cfg(test)]
 pub(crate) mod tests;
 
-pub use read::{parse_vtu, read_vtu};
+pub use read::parse_vtu;
+pub use stream::read_vtu;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum Section {

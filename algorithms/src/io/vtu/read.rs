@@ -2,7 +2,6 @@
 //! first), then the mesh made of the first piece's points, cells and point arrays.
 
 use std::collections::BTreeMap;
-use std::path::Path;
 
 use glam::DVec3;
 use quick_xml::events::{BytesStart, Event};
@@ -16,12 +15,6 @@ use crate::io::split;
 use crate::io::vtk_types::{self, DType};
 use crate::io::LoadOptions;
 use crate::mesh::Mesh;
-
-/// Reads a VTK XML UnstructuredGrid file (see the module docs).
-pub fn read_vtu(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
-    let bytes = crate::io::read_input(path, crate::io::files::ANY_SIZE)?;
-    parse_vtu(&bytes, &path.display().to_string(), opts)
-}
 
 pub(super) fn line_of(xml: &str, pos: usize) -> usize {
     1 + xml.as_bytes()[..pos.min(xml.len())]
@@ -54,9 +47,9 @@ pub(super) fn one_line(s: &str) -> String {
         .to_string()
 }
 
-/// Parses a `.vtu` file held in memory; `source` names it in messages.
-pub fn parse_vtu(bytes: &[u8], source: &str, opts: &LoadOptions) -> Result<Mesh> {
-    // Cut the appended block off: raw bytes are not XML.
+/// Where the XML of a `.vtu` held in `bytes` ends (past `<AppendedData …>`, or the whole
+/// file), and where its appended data starts (past the `_`), when it has any.
+pub(super) fn cut_appended(bytes: &[u8]) -> (usize, Option<usize>) {
     let mut xml_end = bytes.len();
     let mut appended_start = None;
     if let Some(i) = find(bytes, b"<AppendedData") {
@@ -71,14 +64,34 @@ pub fn parse_vtu(bytes: &[u8], source: &str, opts: &LoadOptions) -> Result<Mesh>
             }
         }
     }
-    let xml = std::str::from_utf8(&bytes[..xml_end]).map_err(|e| {
+    (xml_end, appended_start)
+}
+
+/// The XML of a `.vtu` as text, or one line saying where it is not UTF-8.
+pub(super) fn xml_text<'a>(bytes: &'a [u8], source: &str) -> Result<&'a str> {
+    std::str::from_utf8(bytes).map_err(|e| {
         let at = e.valid_up_to();
         let line = 1 + bytes[..at].iter().filter(|&&c| c == b'\n').count();
         Error::input(
             format!("{source}:{line}"),
             "not UTF-8 text (binary data outside AppendedData?)",
         )
-    })?;
+    })
+}
+
+/// What the XML of a `.vtu` says: its pieces, field data arrays and whether its appended data
+/// (if any) is raw.
+pub(super) struct Head {
+    pub(super) pieces: Vec<Piece>,
+    pub(super) field_arrays: Vec<Array>,
+    pub(super) appended_raw: Option<bool>,
+}
+
+/// Parses a `.vtu` file held in memory; `source` names it in messages.
+pub fn parse_vtu(bytes: &[u8], source: &str, opts: &LoadOptions) -> Result<Mesh> {
+    // Cut the appended block off: raw bytes are not XML.
+    let (xml_end, appended_start) = cut_appended(bytes);
+    let xml = xml_text(&bytes[..xml_end], source)?;
     let mut doc = Doc {
         src: source,
         xml,
@@ -88,6 +101,22 @@ pub fn parse_vtu(bytes: &[u8], source: &str, opts: &LoadOptions) -> Result<Mesh>
         appended: None,
         offsets: Vec::new(),
     };
+    let head = walk(&mut doc)?;
+    if let (Some(raw), Some(s)) = (head.appended_raw, appended_start) {
+        let mut data = &bytes[s..];
+        if !raw {
+            let end = data.iter().position(|&c| c == b'<').unwrap_or(data.len());
+            data = &data[..end];
+        }
+        doc.appended = Some((raw, data));
+    }
+    build(&doc, head.pieces, head.field_arrays, opts)
+}
+
+/// Walks the XML of `doc`, setting its byte order, header size, compressor and appended
+/// offsets, and collecting its pieces and arrays.
+pub(super) fn walk(doc: &mut Doc) -> Result<Head> {
+    let (source, xml) = (doc.src, doc.xml);
     let mut reader = Reader::from_str(xml);
     reader.config_mut().trim_text(false);
     let mut stack: Vec<String> = Vec::new();
@@ -276,15 +305,11 @@ pub fn parse_vtu(bytes: &[u8], source: &str, opts: &LoadOptions) -> Result<Mesh>
         ));
     }
     doc.offsets.sort_unstable();
-    if let (Some(raw), Some(s)) = (appended_raw, appended_start) {
-        let mut data = &bytes[s..];
-        if !raw {
-            let end = data.iter().position(|&c| c == b'<').unwrap_or(data.len());
-            data = &data[..end];
-        }
-        doc.appended = Some((raw, data));
-    }
-    build(&doc, pieces, field_arrays, opts)
+    Ok(Head {
+        pieces,
+        field_arrays,
+        appended_raw,
+    })
 }
 
 pub(super) fn push_array(pieces: &mut [Piece], field: &mut Vec<Array>, a: Array) {

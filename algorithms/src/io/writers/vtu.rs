@@ -142,3 +142,25 @@ pub fn write_vtu(mesh: &Mesh, path: &Path) -> Result<()> {
         w.write_all(b"\n  </AppendedData>\n</VTKFile>\n")
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Offsets into the appended block are 64-bit: arrays of 2³² − 1, 2³² and 2³² + 1 bytes
+    /// (a 278M-tet mesh's connectivity is 8.9 GB) place the next array exactly past them.
+    #[test]
+    fn appended_offsets_pass_two_to_the_32_exactly() {
+        const B: u64 = 1 << 32;
+        for bytes in [B - 1, B, B + 1] {
+            let mut off = Offsets(0);
+            assert_eq!(off.next(bytes), 0);
+            assert_eq!(off.next(bytes), 8 + bytes);
+            assert_eq!(off.next(0), 16 + 2 * bytes);
+        }
+        let nt = 278_000_000u64;
+        let mut off = Offsets(0);
+        off.next(32 * nt);
+        assert_eq!(off.next(8 * nt), 8 + 32 * nt);
+    }
+}

@@ -1,7 +1,10 @@
 //! `exact`: the ground truth. A segment is split where its scalar crosses a transfer-function
 //! point and each linear piece is integrated in closed form with Ψ evaluated, not tabled
-//! (CONVENTIONS §4, `exact` row).
+//! (CONVENTIONS §4, `exact` row): `1 − Ψ` and `Ψ − ζ` by Gauss–Legendre quadrature with as few
+//! nodes as its error bound allows (`gauss.rs`: within 1e-12 of the piece's opacity), and by
+//! Ψ's panels ([`psi_terms_ends`]) for the few pieces too deep for that.
 
+use super::gauss::PieceQuadrature;
 use super::psi::psi_terms_ends;
 use super::{composite_under, tau_len, valid_input, Integrator, IntegratorInfo, Segment};
 use crate::tf::TransferFunction;
@@ -71,6 +74,31 @@ pub(super) fn piece_segment(cf: [f64; 3], tau_f: f64, cb: [f64; 3], tau_b: f64, 
     }
 }
 
+/// [`piece_segment`] with `1 − Ψ` and `Ψ − ζ` from the quadrature of `gauss.rs` where one of
+/// its rules covers the piece (`I = C_f·(1 − Ψ) + C_b·(Ψ − ζ)`, `α = (1 − Ψ) + (Ψ − ζ)`, each
+/// within 1e-12·α), else from [`piece_segment`] itself.
+#[inline(always)]
+fn piece_segment_quad(
+    q: &PieceQuadrature,
+    cf: [f64; 3],
+    tau_f: f64,
+    cb: [f64; 3],
+    tau_b: f64,
+    l: f64,
+) -> Segment {
+    match q.terms(tau_len(tau_f, l), tau_len(tau_b, l)) {
+        Some((one_minus_psi, psi_minus_zeta)) => Segment {
+            rgb: [
+                cf[0] * one_minus_psi + cb[0] * psi_minus_zeta,
+                cf[1] * one_minus_psi + cb[1] * psi_minus_zeta,
+                cf[2] * one_minus_psi + cb[2] * psi_minus_zeta,
+            ],
+            alpha: one_minus_psi + psi_minus_zeta,
+        },
+        None => piece_segment(cf, tau_f, cb, tau_b, l),
+    }
+}
+
 /// Composites the pieces of one segment of optical length `l`, front to back.
 pub(super) fn integrate_pieces(pieces: &[Piece], l: f64) -> Segment {
     let mut acc = Segment::default();
@@ -89,19 +117,24 @@ pub(super) fn integrate_pieces(pieces: &[Piece], l: f64) -> Segment {
 #[derive(Clone, Debug)]
 pub struct Exact {
     tf: TransferFunction,
+    quad: &'static PieceQuadrature,
 }
 
 impl Exact {
     pub fn new(tf: &TransferFunction) -> Exact {
-        Exact { tf: tf.clone() }
+        Exact {
+            tf: tf.clone(),
+            quad: PieceQuadrature::shared(),
+        }
     }
 }
 
 impl Exact {
     /// [`Integrator::segment`] given the transfer function's values at both ends,
     /// `ef = tf.eval(sf)` and `eb = tf.eval(sb)` (the same bits): a ray caster evaluates each
-    /// crossing once, as the back of one segment and the front of the next.
-    #[inline]
+    /// crossing once, as the back of one segment and the front of the next. (Inlined whole, so
+    /// that the ray caster's queue compiles its quadrature for its own instruction set.)
+    #[inline(always)]
     pub fn segment_eval(
         &self,
         sf: f64,
@@ -116,7 +149,7 @@ impl Exact {
         // `split_pieces` + `integrate_pieces`, streamed: the same pieces composited in the same
         // order, without the two heap allocations per segment (the ray caster calls this once
         // per cell step).
-        let tf = &self.tf;
+        let (tf, q) = (&self.tf, self.quad);
         let span = sb - sf;
         let (lo, hi) = if sf <= sb { (sf, sb) } else { (sb, sf) };
         let mut acc = Segment::default();
@@ -124,7 +157,7 @@ impl Exact {
         let mut piece = |s1: f64, (c1, t1): ([f64; 3], f64)| -> bool {
             let frac = if span != 0.0 { (s1 - s0) / span } else { 1.0 };
             if frac > 0.0 {
-                composite_under(&mut acc, piece_segment(c0, t0, c1, t1, frac * l));
+                composite_under(&mut acc, piece_segment_quad(q, c0, t0, c1, t1, frac * l));
                 if acc.alpha >= 1.0 {
                     return false;
                 }

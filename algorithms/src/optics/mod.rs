@@ -23,6 +23,7 @@ use crate::tf::TransferFunction;
 mod average;
 mod exact;
 pub mod fast;
+mod gauss;
 pub mod gpu;
 mod partial;
 mod preint;

@@ -291,3 +291,100 @@ fn reference_pixels_match_the_fifty_digit_model() {
         );
     }
 }
+
+/// Single pieces at the depths where `exact` changes its quadrature (the `G = g(1)` up to which
+/// each Gauss–Legendre rule of `algorithms/src/optics/gauss.rs` is used, and where the last one
+/// hands over to Ψ's panels), just below and above each, in the middle of each band, and far
+/// thinner (τ·l down to 1e-300): with one end's τ 0, equal ends and random ratios, front to back
+/// and back to front, and pieces that start or end on a TF point. Each is held to 1e-11, the
+/// quadrature's bound (1e-12 of the piece's opacity for each of its two integrals) with room
+/// for the oracle's inputs' last bits; the rays to the contract's 1e-9.
+#[test]
+fn exact_pieces_at_the_quadrature_bounds_match_the_fifty_digit_model() {
+    let Some(py) = python("exact_pieces_at_the_quadrature_bounds_match_the_fifty_digit_model")
+    else {
+        return;
+    };
+    const BOUNDS: [f64; 8] = [2.4e-3, 2.4e-2, 9.3e-2, 0.22, 0.40, 0.89, 1.49, 2.88];
+    let mut rng = Rng(1955);
+    let mut depths: Vec<f64> = vec![1e-300, 1e-100, 1e-30, 1e-14, 1e-8, 1e-5, 3.0, 5.0, 40.0];
+    let mut lo = 1e-5;
+    for &b in &BOUNDS {
+        depths.extend([
+            b * (1.0 - 1e-12),
+            b,
+            b * (1.0 + 1e-12),
+            b * 1.01,
+            (lo * b).sqrt(),
+        ]);
+        lo = b;
+    }
+    // TF points at 0 and 1 (and a middle one for the pieces that meet a point).
+    for ratio in [0.0, 1.0, 0.37, 2.9, -1.0] {
+        let r = if ratio < 0.0 { rng.f() } else { ratio };
+        let (t0, t1) = (1.0, r);
+        let tf = TransferFunction {
+            name: "two".into(),
+            range: None,
+            points: vec![
+                TfPoint {
+                    s: 0.0,
+                    rgb: [0.9, 0.1, 0.5],
+                    tau: t0,
+                },
+                TfPoint {
+                    s: 0.5,
+                    rgb: [0.3, 0.8, 0.2],
+                    tau: 0.5 * (t0 + t1),
+                },
+                TfPoint {
+                    s: 1.0,
+                    rgb: [0.1, 0.6, 1.0],
+                    tau: t1,
+                },
+            ],
+        };
+        let exact = integrator("exact", &tf).unwrap();
+        // Segments of one piece (and one of two, split at 0.5) of optical depth G = τ̄·l.
+        let tau = |s: f64| tf.eval(s).1;
+        let mut segs: Vec<(f64, f64, f64)> = Vec::new();
+        for &g in &depths {
+            for (sf, sb) in [
+                (0.0, 0.5),
+                (0.5, 0.0),
+                (0.5, 1.0),
+                (1.0, 0.5),
+                (0.2, 0.5),
+                (0.5, 0.5),
+                (0.0, 1.0),
+            ] {
+                let mean = 0.5 * (tau(sf) + tau(sb));
+                if mean > 0.0 {
+                    segs.push((sf, sb, g / mean));
+                }
+            }
+        }
+        let got: Vec<[f64; 4]> = segs
+            .iter()
+            .map(|&(sf, sb, l)| {
+                let s = exact.segment(sf, sb, l);
+                [s.rgb[0], s.rgb[1], s.rgb[2], s.alpha]
+            })
+            .collect();
+        let rays: Vec<String> = segs
+            .iter()
+            .map(|(a, b, l)| format!("[[{a:e},{b:e},{l:e}]]"))
+            .collect();
+        let job = format!(r#"{{"tf":{},"rays":[{}]}}"#, tf_json(&tf), rays.join(","));
+        let want = oracle(&py, &job);
+        let (d, k) = worst(&got, &want);
+        eprintln!("τ ratio {r}: largest difference {d:.3e}");
+        assert!(
+            d <= 1e-11,
+            "τ ratio {r}, piece {:?}: {:?} against the model's {:?}",
+            segs[k],
+            got[k],
+            want[k]
+        );
+    }
+}

@@ -26,8 +26,8 @@ fn opaque_everywhere() -> TransferFunction {
     .unwrap()
 }
 
-/// Holes and missed rays of the ray caster with `integrator` (`exact`: the reference; `partial`
-/// walks the projected way) over `views` Fibonacci views at `size`² (even views orthographic,
+/// Holes and missed rays of the ray caster with `integrator` (`exact`: the reference; `partial`:
+/// `raycast`'s default; both walk the projected way, whose signs are the reference walk's) over `views` Fibonacci views at `size`² (even views orthographic,
 /// odd perspective). Returns (covered pixels, transparent covered pixels, missed_rays), and
 /// prints the first few holes.
 fn holes_with(
@@ -111,7 +111,7 @@ fn hard_cases_have_no_holes() {
     }
 }
 
-/// The projected walk of `partial` decides the reference's signs, so it is watertight too.
+/// `partial` walks as the reference does (the projected walk), so it is watertight too.
 #[test]
 fn hard_cases_have_no_holes_with_the_projected_walk() {
     for (name, mesh) in hard_cases() {

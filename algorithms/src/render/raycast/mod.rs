@@ -90,8 +90,8 @@ pub struct RayCaster {
     name: &'static str,
     integrator_name: String,
     state: Option<Prepared>,
-    /// Whether the integrators other than `exact` walk with the projected walk (the default;
-    /// see `projected.rs`) rather than the reference's.
+    /// Whether the walk is the projected walk (the default; see `projected.rs`) rather than the
+    /// reference walk of `walk.rs`.
     projected_walk: bool,
 }
 
@@ -133,10 +133,9 @@ impl RayCaster {
         }
     }
 
-    /// Chooses the walk of the integrators other than `exact`: the projected walk (`true`, the
-    /// default) or the reference's (`false`; the same cells, decided by the same exact signs,
-    /// with the crossings interpolated in three dimensions). `exact` always walks the
-    /// reference's way. For the tests that hold the two walks together.
+    /// Chooses the walk: the projected walk (`true`, the default) or the reference walk of
+    /// `walk.rs` (`false`; the same cells, decided by the same exact signs, with the crossings
+    /// interpolated in three dimensions). For the tests that hold the two walks together.
     pub fn set_projected_walk(&mut self, on: bool) {
         self.projected_walk = on;
     }
@@ -280,7 +279,7 @@ impl RayCaster {
             .map_err(|e| Error::Input(format!("raycast: {}x{}: {e}", camera.width, camera.height)))?;
         let stats = match &st.shader {
             Shader::Partial(p) => st.tiles(mesh, camera, p, self.projected_walk, &mut px),
-            Shader::Exact(e) => st.tiles(mesh, camera, e, false, &mut px),
+            Shader::Exact(e) => st.tiles(mesh, camera, e, self.projected_walk, &mut px),
             Shader::Other(i) => st.tiles(mesh, camera, i, self.projected_walk, &mut px),
         };
         Ok((px, stats))

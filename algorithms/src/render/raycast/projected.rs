@@ -1,4 +1,5 @@
-//! The projected walk: the cell walk of `raycast` with every integrator but `exact`.
+//! The projected walk: the cell walk of `raycast` with every integrator, `exact` (`reference`)
+//! included; the reference walk of `walk.rs` is kept as the one the tests hold it to.
 //!
 //! The ray is the origin of a 2-D frame `(f1, f2)` perpendicular to it (`f1 × f2 = d̂`), and
 //! each vertex of a cell is transformed into that frame once, when the walk first meets it

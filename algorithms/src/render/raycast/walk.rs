@@ -1,6 +1,8 @@
-//! The cell walk: the exit face of each cell from the edge products (the entry face's carried
-//! over from the previous cell), the crossing's depth and scalar, and one ray's cast.
-
+//! The reference walk: the exit face of each cell from the edge products in three dimensions
+//! (the entry face's carried over from the previous cell), the crossing's depth and scalar, and
+//! one ray's cast. The renderers walk with the projected walk (`projected.rs`), which decides
+//! the same signs; this one is what the tests hold it to, and its edge predicate and face
+//! crossings are the exact fallback and the entry tests of both.
 
 use super::bvh::Front;
 use super::predicate::RayCtx;

@@ -169,6 +169,25 @@ pub fn find(name: &str) -> Option<&'static Generator> {
     GENERATORS.iter().find(|g| g.name == name)
 }
 
+/// Splits a dataset spec, `NAME` or `NAME:N` (N tets, at least 1), into the generator name and
+/// the size; one line when the size is not a count.
+pub fn parse_spec(spec: &str) -> Result<(&str, Option<usize>)> {
+    match spec.split_once(':') {
+        Some((name, n)) => n
+            .trim()
+            .parse::<usize>()
+            .ok()
+            .filter(|&t| t > 0)
+            .map(|t| (name, Some(t)))
+            .ok_or_else(|| {
+                Error::Input(format!(
+                    "{spec}: the size after ':' must be a tet count (at least 1)"
+                ))
+            }),
+        None => Ok((spec, None)),
+    }
+}
+
 /// Generates mesh `name` with about `tets` tets (default: the generator's size) from `seed`.
 /// An unknown name or a size of 0 (or above [`MAX_TETS`]) is an [`Error::Input`].
 pub fn generate(name: &str, tets: Option<usize>, seed: u64) -> Result<Mesh> {

@@ -1,4 +1,8 @@
-//! `datasets-gen --list`; `datasets-gen NAME [--tets N] [--seed S] --out FILE` (CONVENTIONS §8).
+//! `datasets-gen --list`; `datasets-gen NAME[:N] [--tets N] [--seed S] --out FILE`
+//! (CONVENTIONS §8).
+//!
+//! The mesh is generated once and the writer streams from it into the file, so writing holds
+//! no second copy (a 278M-tet mesh is written in the memory the mesh takes).
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -12,7 +16,7 @@ struct Args {
     /// Print every generator: name, default size, description, what hard cases break.
     #[arg(long)]
     list: bool,
-    /// Generator name (see --list).
+    /// Generator name (see --list), optionally with its size as `NAME:N` (as tetbench takes it).
     #[arg(required_unless_present = "list")]
     name: Option<String>,
     /// Number of tets (default: the generator's size).
@@ -93,7 +97,19 @@ fn main() -> ExitCode {
             algorithms::io::writers::FORMATS.join(", .")
         ));
     }
-    let mut mesh = match datasets_gen::generate(&name, args.tets, args.seed) {
+    let (name, tets) = match datasets_gen::parse_spec(&name) {
+        Ok((n, t)) => (n.to_string(), t),
+        Err(e) => return fail(e),
+    };
+    let tets = match (tets, args.tets) {
+        (Some(a), Some(b)) if a != b => {
+            return fail(format!(
+                "{name}: two sizes, {a} (NAME:N) and {b} (--tets); give one"
+            ))
+        }
+        (a, b) => a.or(b),
+    };
+    let mut mesh = match datasets_gen::generate(&name, tets, args.seed) {
         Ok(m) => m,
         Err(e) => return fail(e),
     };

@@ -167,3 +167,36 @@ fn vtu_keeps_the_lattice_and_the_steps_once_the_writer_exists() {
     }
     std::fs::remove_dir_all(&d).ok();
 }
+
+#[test]
+fn a_size_after_the_name_is_the_tet_count_and_a_second_one_is_refused() {
+    let d = tmpdir("spec");
+    let a = d.join("a.vtu");
+    let b = d.join("b.vtu");
+    let out = bin()
+        .args(["brain:2000", "--out"])
+        .arg(&a)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{out:?}");
+    let out = bin()
+        .args(["brain", "--tets", "2000", "--out"])
+        .arg(&b)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{out:?}");
+    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+    for args in [
+        &["brain:2000", "--tets", "3000"][..],
+        &["brain:abc"][..],
+        &["brain:0"][..],
+    ] {
+        let c = d.join("c.vtu");
+        let out = bin().args(args).arg("--out").arg(&c).output().unwrap();
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        let err = String::from_utf8(out.stderr).unwrap();
+        assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
+        assert!(!c.exists(), "{args:?} wrote a file");
+    }
+    std::fs::remove_dir_all(&d).ok();
+}

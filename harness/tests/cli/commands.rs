@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
-use crate::test_util::{command, tetbench, tmpdir, TWO_TETS};
+use crate::test_util::{command, tetbench, tmpdir, two_tets_in};
 
 fn stdout(o: &Output) -> String {
     String::from_utf8_lossy(&o.stdout).into_owned()
@@ -37,8 +37,7 @@ fn assert_user_error(o: &Output, want: &str) {
 #[test]
 fn info_prints_the_fields_of_the_conventions() {
     let d = tmpdir("info");
-    let p = d.join("two.off");
-    std::fs::write(&p, TWO_TETS).unwrap();
+    let p = two_tets_in(&d);
     let o = tetbench(&["info", p.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
     let out = stdout(&o);
@@ -93,8 +92,7 @@ fn nasa_grids_have_the_papers_sizes() {
 #[test]
 fn compare_an_image_with_itself_and_with_another() {
     let d = tmpdir("compare");
-    let p = d.join("two.off");
-    std::fs::write(&p, TWO_TETS).unwrap();
+    let p = two_tets_in(&d);
     let a = d.join("a.exr");
     let o = tetbench(&[
         "render",
@@ -149,8 +147,7 @@ fn compare_an_image_with_itself_and_with_another() {
 #[test]
 fn render_prints_the_timing_split_and_memory() {
     let d = tmpdir("render");
-    let p = d.join("two.off");
-    std::fs::write(&p, TWO_TETS).unwrap();
+    let p = two_tets_in(&d);
     let out = d.join("r.png");
     let o = tetbench(&[
         "render",
@@ -191,8 +188,7 @@ fn render_prints_the_timing_split_and_memory() {
 #[test]
 fn bad_input_exits_2_with_one_line_and_no_output_file() {
     let d = tmpdir("bad");
-    let good = d.join("two.off");
-    std::fs::write(&good, TWO_TETS).unwrap();
+    let good = two_tets_in(&d);
     let bad = d.join("bad.off");
     std::fs::write(
         &bad,

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Output, Stdio};
 use std::time::{Duration, Instant};
 
-use crate::test_util::{command, one_line_error, s, tmpdir, Csv, TWO_TETS};
+use crate::test_util::{command, one_line_error, s, tmpdir, two_tets_in, Csv, TWO_TETS};
 
 /// Runs tetbench with a deadline: a run that blocks is killed and reported as such.
 fn run(args: &[&str], limit_as: Option<u64>) -> Output {
@@ -316,8 +316,7 @@ fn tiny_png(w: u32, h: u32) -> Vec<u8> {
 fn compare_refuses_headers_that_announce_huge_images() {
     let d = tmpdir("huge");
     let good = d.join("good.exr");
-    let mesh = d.join("two.off");
-    std::fs::write(&mesh, TWO_TETS).unwrap();
+    let mesh = two_tets_in(&d);
     let o = tetbench(&[
         "render",
         s(&mesh),

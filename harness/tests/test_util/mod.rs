@@ -113,3 +113,10 @@ impl Csv {
 
 /// Two unit tets sharing a face, as a tetrahedral `.off` file (CONVENTIONS §9).
 pub const TWO_TETS: &str = "5 2\n0 0 0 0.5\n1 0 0 1\n0 1 0 2\n0 0 1 3\n1 1 1 4\n0 1 2 3\n1 2 3 4\n";
+
+/// [`TWO_TETS`] written as `dir/two.off`: the mesh most command tests render.
+pub fn two_tets_in(dir: &Path) -> PathBuf {
+    let p = dir.join("two.off");
+    std::fs::write(&p, TWO_TETS).unwrap();
+    p
+}
